@@ -1,0 +1,8 @@
+"""Vane dynamics with clearance: geometry, contact, equations of motion and the time loop (SPEC §1-§6, §8)."""
+from .errors import IntegrationError
+from .parameters import CompressorParameters, declarations
+from .simulation import History, Simulation, SimulationState
+from .speed import SpeedLaw, constant_speed, cycloidal_ramp, linear_ramp
+
+__all__ = ["CompressorParameters", "declarations", "History", "IntegrationError", "Simulation", "SimulationState",
+           "SpeedLaw", "constant_speed", "cycloidal_ramp", "linear_ramp"]

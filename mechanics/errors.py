@@ -1,0 +1,13 @@
+"""The exception raised when the time loop cannot go on (SPEC §8.2: step below h_min, non-finite state, ...)."""
+import numpy as np
+
+
+class IntegrationError(RuntimeError):
+    """The integrator stopped: `time` is where, `state` the last accepted state, `reason` why."""
+
+    def __init__(self, reason: str, time: float, state: np.ndarray):
+        self.reason = reason
+        self.time = float(time)
+        self.state = np.array(state, copy=True)
+        super().__init__(f"integration stopped at t = {self.time:.9g} s: {reason}; "
+                         f"state = {np.array2string(self.state, precision=6)}")

@@ -1,0 +1,99 @@
+"""Gas force resultants on the vane, the rotor and the stator, and their power (SPEC §6.2, §6.4).
+
+All functions are pure. The vane is loaded on its exposed leading/trailing flat faces, on its two tip arcs
+(split at the contact angle psi_c, never clipped) and on its bottom face (back-chamber pressure); the rotor on the
+slot wall between a recessed tip junction and the mouth; the stator on the active lobe's wall.
+"""
+import math
+
+from numba import njit
+
+
+@njit(cache=True)
+def _point_velocity(px, py, gx, gy, vx, vy, angular_velocity):
+    """v3(P) = v_G + phi_dot x (P - G)."""
+    return vx - angular_velocity * (py - gy), vy + angular_velocity * (px - gx)
+
+
+@njit(cache=True)
+def vane_gas_load(gx, gy, vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing,
+                  contact_angle, leading_pressure, trailing_pressure, back_pressure, m):
+    """Resultant (F_x, F_y, moment about G) and power sum F_i . v3(point_i) of the gas on the vane (SPEC §6.2).
+
+    flat face side s:  F = -s p_s L l_s e_eta at ((xi_E + xi_T)/2, s t/2),  l_s = xi_T - xi_E,s  (if > 0)
+    tip arc [psi1, psi2] at p:  F = -p L rho [(sin psi2 - sin psi1) e_xi + (cos psi1 - cos psi2) e_eta], through T
+    bottom face:  F = +p_b t L e_xi at (xi_B, 0)
+    """
+    eeta_x, eeta_y = -exi_y, exi_x
+    fx = 0.0
+    fy = 0.0
+    moment = 0.0
+    power = 0.0
+    length = m.axial_length
+    for side in (1.0, -1.0):
+        mouth_level = xi_mouth_leading if side > 0.0 else xi_mouth_trailing
+        pressure = leading_pressure if side > 0.0 else trailing_pressure
+        exposed = m.tip_centre - mouth_level
+        if exposed > 0.0:
+            force = -side * pressure * length * exposed
+            xi = 0.5 * (mouth_level + m.tip_centre)
+            eta = side * m.half_thickness
+            rx = xi * exi_x + eta * eeta_x
+            ry = xi * exi_y + eta * eeta_y
+            f_x = force * eeta_x
+            f_y = force * eeta_y
+            fx += f_x
+            fy += f_y
+            moment += rx * f_y - ry * f_x
+            px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
+            power += f_x * px + f_y * py
+    # tip arcs, through T: leading [psi_c, pi/2] at p_L, trailing [-pi/2, psi_c] at p_T
+    sin_c = math.sin(contact_angle)
+    cos_c = math.cos(contact_angle)
+    scale_l = -leading_pressure * length * m.tip_radius
+    scale_t = -trailing_pressure * length * m.tip_radius
+    along = scale_l * (1.0 - sin_c) + scale_t * (sin_c + 1.0)
+    across = scale_l * cos_c + scale_t * (-cos_c)
+    f_x = along * exi_x + across * eeta_x
+    f_y = along * exi_y + across * eeta_y
+    rx = m.tip_centre * exi_x
+    ry = m.tip_centre * exi_y
+    fx += f_x
+    fy += f_y
+    moment += rx * f_y - ry * f_x
+    px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
+    power += f_x * px + f_y * py
+    # bottom face
+    force = back_pressure * 2.0 * m.half_thickness * length
+    f_x = force * exi_x
+    f_y = force * exi_y
+    rx = m.bottom_face * exi_x
+    ry = m.bottom_face * exi_y
+    fx += f_x
+    fy += f_y
+    moment += rx * f_y - ry * f_x
+    px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
+    power += f_x * px + f_y * py
+    return fx, fy, moment, power
+
+
+@njit(cache=True)
+def rotor_gas_moment(junction_radius_leading, junction_radius_trailing, leading_pressure, trailing_pressure, m):
+    """Moment about O of the gas on the slot walls above a recessed tip junction (SPEC §6.2):
+
+    M = sum_s s p_s L (R_m^2 - r_J,s^2)/2  for r_J,s < R_m.
+    """
+    moment = 0.0
+    if junction_radius_leading < m.mouth_radius:
+        moment += leading_pressure * m.axial_length * (m.mouth_radius ** 2 - junction_radius_leading ** 2) / 2.0
+    if junction_radius_trailing < m.mouth_radius:
+        moment -= trailing_pressure * m.axial_length * (m.mouth_radius ** 2 - junction_radius_trailing ** 2) / 2.0
+    return moment
+
+
+@njit(cache=True)
+def stator_gas_moment(stator_radius_squared, leading_pressure, trailing_pressure, m):
+    """M_gas,stator = 1/2 L (p_L - p_T)(|S(u*)|^2 - R_v^2),  R_v = R_r + c_S (SPEC §6.2)."""
+    valley_radius = m.rotor_radius + m.stator_clearance
+    return 0.5 * m.axial_length * (leading_pressure - trailing_pressure) * (stator_radius_squared
+                                                                            - valley_radius ** 2)

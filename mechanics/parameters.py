@@ -1,0 +1,216 @@
+"""The compressor's parameters, declared once (ARCHITECTURE "One source of truth").
+
+Each field of :class:`CompressorParameters` carries its SI unit, default (SPEC §9), allowed range and a
+description in its metadata. The simulation validates against these declarations, and the FMU and the README's
+parameter table are generated from them. Choices (the displacement law, the integrator, ...) are string fields
+whose allowed values are listed in the metadata.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from .geometry import check_stator_regularity
+
+DISPLACEMENT_LAWS = ("harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
+INTEGRATORS = ("dopri5", "abm4")
+STIFFNESS_MODELS = ("hertz_point", "johnson_line")
+FRICTION_MODELS = ("threlfall", "ambrosio")
+PRESSURE_MODELS = ("polytropic", "ideal_gas_table")
+
+
+def _number(default, unit, minimum, maximum, description, *, exclusive_minimum=False, integer=False):
+    """A numeric parameter with its unit, allowed closed range [minimum, maximum] and description."""
+    return field(default=default, metadata=dict(
+        unit=unit, min=minimum, max=maximum, exclusive_min=exclusive_minimum, integer=integer,
+        description=description))
+
+
+def _choice(default, choices, description):
+    """A parameter that takes one of a fixed set of string values."""
+    return field(default=default, metadata=dict(unit="", choices=choices, description=description))
+
+
+@dataclass(frozen=True)
+class CompressorParameters:
+    """All parameters of one compressor run, SI units, defaults of SPEC §9."""
+
+    # geometry (SPEC §2)
+    lobes: int = _number(3, "1", 2, 12, "number of stator lobes z (compression cycles per revolution)",
+                         integer=True)
+    displacement_law: str = _choice("harmonic", DISPLACEMENT_LAWS,
+                                    "vane-tip-centre displacement law s(theta) of SPEC §2.3")
+    stroke: float = _number(5.0e-3, "m", 0.0, 20e-3, "vane stroke h = lobe height", exclusive_minimum=True)
+    bottom_dwell: float = _number(0.0, "rad", 0.0, 1.0, "bottom (valley) dwell angle beta0, harmonic_dwell law only")
+    top_dwell: float = _number(0.0, "rad", 0.0, 1.0, "top dwell angle beta1, harmonic_dwell law only")
+    rotor_radius: float = _number(30.0e-3, "m", 5e-3, 0.2, "rotor radius R_r")
+    vane_thickness: float = _number(4.0e-3, "m", 0.5e-3, 20e-3, "vane thickness t (tip radius is t/2)")
+    vane_length: float = _number(18.0e-3, "m", 2e-3, 0.2, "vane length l_v from bottom face to tip apex")
+    axial_length: float = _number(55.0e-3, "m", 1e-3, 0.5, "axial length L of rotor, vane and stator")
+    slot_bottom_radius: float = _number(9.5e-3, "m", 0.0, 0.2, "radius r_sb of the slot bottom")
+    edge_radius: float = _number(1.0e-3, "m", 1e-5, 10e-3, "effective radius r_e of slot edges and vane corners")
+    slot_clearance: float = _number(0.0, "m", 0.0, 1e-3, "total (diametral) vane-slot clearance c_R = w - t")
+    stator_clearance: float = _number(0.0, "m", 0.0, 1e-3, "radial vane-stator clearance c_S (also the valley gap)")
+    # materials and contact (SPEC §5)
+    vane_density: float = _number(7850.0, "kg/m3", 100.0, 25000.0, "vane material density")
+    rotor_inertia: float = _number(5.5e-4, "kg.m2", 0.0, 10.0, "rotor moment of inertia J2 about its axis")
+    youngs_modulus: float = _number(207e9, "Pa", 1e8, 1e12, "Young's modulus of all bodies")
+    poisson_ratio: float = _number(0.30, "1", 0.0, 0.5, "Poisson's ratio of all bodies", exclusive_minimum=False)
+    restitution: float = _number(0.9, "1", 0.0, 1.0, "coefficient of restitution c_e of the Lankarani-Nikravesh law",
+                                 exclusive_minimum=True)
+    onset_velocity_floor: float = _number(0.01, "m/s", 1e-6, 10.0, "floor v_floor on the stored impact velocity")
+    stiffness_model: str = _choice("hertz_point", STIFFNESS_MODELS,
+                                   "contact stiffness: Hertz point contact (option P) or Johnson line contact (L)")
+    friction_model: str = _choice("threlfall", FRICTION_MODELS, "regularised Coulomb friction law of SPEC §5.3")
+    friction_coefficient: float = _number(0.085, "1", 0.0, 2.0, "Coulomb friction coefficient mu, all contacts")
+    friction_velocity: float = _number(1e-3, "m/s", 1e-7, 1.0, "regularisation velocity v_0 of the friction law",
+                                       exclusive_minimum=True)
+    friction_velocity_full: float = _number(1e-3, "m/s", 1e-7, 1.0,
+                                            "velocity v_1 of full sliding friction (ambrosio law only)")
+    # gas (SPEC §6-§7)
+    pressure_model: str = _choice("ideal_gas_table", PRESSURE_MODELS,
+                                  "chamber pressure source: Level 0 polytropic or Level 0.5 ideal-gas table")
+    suction_pressure: float = _number(0.2928e6, "Pa", 1e3, 20e6, "suction pressure p_s", exclusive_minimum=True)
+    suction_temperature: float = _number(283.15, "K", 150.0, 600.0, "suction temperature T_s")
+    discharge_pressure: float = _number(1.3179e6, "Pa", 1e3, 40e6, "discharge (and back-chamber) pressure p_d")
+    polytropic_exponent: float = _number(1.10, "1", 1.0, 2.0, "polytropic exponent n_p of the Level 0 model")
+    suction_close_angle: float = _number(math.radians(10.0), "rad", 0.0, 1.0,
+                                         "lobe phase phi_sc at which the leading chamber closes to suction")
+    dead_volume: float = _number(0.05e-6, "m3", 0.0, 1e-3, "dead volume V_dead of the leading chamber",
+                                 exclusive_minimum=True)
+    discharge_port_area: float = _number(20e-6, "m2", 0.0, 1e-2, "discharge port area A_d", exclusive_minimum=True)
+    discharge_port_coefficient: float = _number(0.7, "1", 0.0, 1.0, "discharge coefficient of the discharge port",
+                                                exclusive_minimum=True)
+    leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient C_d,leak of the clearance gaps")
+    heat_capacity_ratio: float = _number(1.10, "1", 1.0, 2.0, "ideal-gas heat capacity ratio k (Level 0.5)",
+                                         exclusive_minimum=True)
+    gas_constant: float = _number(81.5, "J/(kg.K)", 1.0, 5000.0, "specific gas constant R (Level 0.5)")
+    # numerics (SPEC §8)
+    integrator: str = _choice("dopri5", INTEGRATORS,
+                              "time integrator: adaptive Dormand-Prince 5(4) or the thesis's ABM4 PECE")
+    relative_tolerance: float = _number(1e-6, "1", 1e-12, 1e-2, "relative error tolerance rtol")
+    tolerance_scale: float = _number(1.0, "1", 1e-6, 1e3,
+                                     "factor on all absolute tolerances of SPEC §8.2 (positions 1e-9 m, ...)")
+    initial_step: float = _number(1e-6, "s", 1e-10, 1e-3, "first step size h_0")
+    min_step: float = _number(1e-9, "s", 1e-14, 1e-5, "smallest step h_min; below it the run stops with an error")
+    max_step: float = _number(2e-5, "s", 1e-8, 1e-2, "largest step h_max")
+    max_onset_penetration: float = _number(1e-6, "m", 1e-9, 1e-4,
+                                           "largest penetration allowed in the step where a contact opens")
+    mode_dwell_time: float = _number(10e-6, "s", 0.0, 1e-2, "minimum cumulative dwell tau_min of a counted mode")
+
+    def __post_init__(self):
+        validate(self)
+
+    def replace(self, **changes) -> "CompressorParameters":
+        """A copy with some values changed (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    # derived quantities used everywhere ------------------------------------------------------------
+    @property
+    def tip_radius(self) -> float:
+        """Tip semicircle radius rho = t/2 (SPEC §2.1)."""
+        return 0.5 * self.vane_thickness
+
+    @property
+    def base_radius(self) -> float:
+        """Tip-centre radius at zero stroke, R0 = R_r - rho (SPEC §2.3)."""
+        return self.rotor_radius - self.tip_radius
+
+    @property
+    def slot_width(self) -> float:
+        """Slot width w = t + c_R (SPEC §2.2)."""
+        return self.vane_thickness + self.slot_clearance
+
+    @property
+    def mouth_radius(self) -> float:
+        """Radius of the slot-mouth edges R_m = sqrt(R_r^2 - (w/2)^2) (SPEC §2.2)."""
+        return math.sqrt(self.rotor_radius ** 2 - (0.5 * self.slot_width) ** 2)
+
+    @property
+    def envelope_offset(self) -> float:
+        """Offset d = rho + c_S of the stator from the pitch curve (SPEC §2.5)."""
+        return self.tip_radius + self.stator_clearance
+
+
+def declarations():
+    """(name, default, metadata) for every parameter, in declaration order."""
+    return [(f.name, f.default, dict(f.metadata)) for f in dataclasses.fields(CompressorParameters)]
+
+
+def allowed_range_text(metadata: dict[str, Any]) -> str:
+    """Human-readable allowed range of one parameter, e.g. '[0, 0.001] m' or 'one of harmonic, cycloidal'."""
+    if "choices" in metadata:
+        return "one of " + ", ".join(metadata["choices"])
+    left = "(" if metadata["exclusive_min"] else "["
+    kind = "integer in " if metadata["integer"] else ""
+    return f"{kind}{left}{metadata['min']:g}, {metadata['max']:g}] {metadata['unit']}".rstrip()
+
+
+def _reject(name, value, allowed):
+    raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed {allowed}")
+
+
+def _validate_declared_ranges(params: CompressorParameters) -> None:
+    for name, _, meta in declarations():
+        value = getattr(params, name)
+        allowed = allowed_range_text(meta)
+        if "choices" in meta:
+            if value not in meta["choices"]:
+                _reject(name, value, allowed)
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            _reject(name, value, allowed)
+        if meta["integer"] and int(value) != value:
+            _reject(name, value, allowed)
+        if not math.isfinite(value):
+            _reject(name, value, allowed)
+        below = value <= meta["min"] if meta["exclusive_min"] else value < meta["min"]
+        if below or value > meta["max"]:
+            _reject(name, value, allowed)
+
+
+def _validate_relations(params: CompressorParameters) -> None:
+    """Conditions that involve several parameters (each message names the parameter to change)."""
+    p = params
+    if p.discharge_pressure <= p.suction_pressure:
+        _reject("discharge_pressure", p.discharge_pressure,
+                f"greater than suction_pressure = {p.suction_pressure:g} Pa")
+    if p.min_step >= p.max_step or p.initial_step > p.max_step:
+        _reject("min_step", p.min_step, f"min_step < initial_step <= max_step = {p.max_step:g} s")
+    if p.stroke >= p.base_radius:
+        _reject("stroke", p.stroke, f"< rotor_radius - vane_thickness/2 = {p.base_radius:g} m")
+    if p.slot_width >= p.rotor_radius:
+        _reject("vane_thickness", p.vane_thickness, f"slot width t + c_R < rotor_radius = {p.rotor_radius:g} m")
+    if p.friction_model == "ambrosio" and p.friction_velocity >= p.friction_velocity_full:
+        _reject("friction_velocity_full", p.friction_velocity_full,
+                f"greater than friction_velocity = {p.friction_velocity:g} m/s for the ambrosio law")
+    if p.displacement_law == "harmonic_dwell":
+        free = 2 * math.pi / p.lobes - p.bottom_dwell - p.top_dwell
+        if free <= 0.0:
+            _reject("bottom_dwell", p.bottom_dwell,
+                    f"bottom_dwell + top_dwell < 2 pi / lobes = {2 * math.pi / p.lobes:g} rad")
+    # the vane: straight part must stay engaged in the slot by at least one thickness at full stroke,
+    # and never reach the slot bottom at zero stroke (SPEC §2.1, §4.3)
+    straight_length = p.vane_length - p.tip_radius
+    bottom_radius_at_full_stroke = p.base_radius + p.stroke - straight_length
+    shortest = p.base_radius + p.stroke - p.mouth_radius + p.vane_thickness + p.tip_radius
+    if bottom_radius_at_full_stroke > p.mouth_radius - p.vane_thickness:
+        _reject("vane_length", p.vane_length,
+                f">= {shortest:g} m (at least one vane thickness engaged in the slot at full stroke "
+                f"{p.stroke:g} m)")
+    bottom_radius_at_rest = p.base_radius - straight_length
+    if bottom_radius_at_rest <= p.slot_bottom_radius:
+        _reject("slot_bottom_radius", p.slot_bottom_radius,
+                f"< {bottom_radius_at_rest:g} m (the vane bottom at zero stroke must clear the slot bottom)")
+
+
+def validate(params: CompressorParameters) -> None:
+    """Raise ValueError naming the parameter, its value and the allowed range, for any invalid value.
+
+    The stator regularity condition 1 + d kappa_C > 0 (SPEC §2.5) is checked by the geometry module.
+    """
+    _validate_declared_ranges(params)
+    _validate_relations(params)
+    check_stator_regularity(params)

@@ -1,0 +1,95 @@
+"""Per-revolution and per-lobe means, efficiency, energy and torque balances, peak forces and modes (SPEC §4.6, §6.4).
+
+All means are exact work differences: the work integrals are states, and the time loop lands on every valley
+(every 2 pi / z of rotor angle), so revolution and lobe boundaries are recorded rows.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .modes import distinct_modes, mode_dwell
+from .simulation import History
+
+BOUNDARY_TOLERANCE = 1e-7       # rad: a recorded row this close to a multiple of the period is a boundary
+
+
+@dataclass(frozen=True)
+class WindowSummary:
+    """Figures over one window [start_time, end_time] of whole lobes or revolutions."""
+    start_time: float
+    end_time: float
+    input_power: float            # <P_in> [W]
+    output_power: float           # <P_out> [W]
+    friction_power: float         # <P_fric> [W]
+    damping_power: float          # <P_damp> [W]
+    mechanical_efficiency: float  # eta_m = <P_out>/<P_in>
+    energy_residual: float        # (W_in - W_out - W_fric - W_damp - dKE - dPE - J2 int(omega theta_ddot)) / W_in
+    driving_torque: float         # <T_d> = W_in / angle turned [N m]
+    stator_torque: float          # <lambda3 + M_gas,stator>, trapezoidal mean [N m]
+    max_normal_force: tuple       # max F_n per region c1..c6 [N]
+    max_tilt: float               # max |phi3 - theta| [rad]
+    mode_dwell: dict              # mode mask -> cumulative dwell [s]
+    distinct_modes: tuple         # masks with dwell >= tau_min
+
+    @property
+    def torque_balance_error(self) -> float:
+        """|<T_d> - <lambda3 + M_gas,stator>| / |<T_d>| (SPEC §11 T11)."""
+        return abs(self.driving_torque - self.stator_torque) / abs(self.driving_torque)
+
+
+def boundary_rows(history: History, period: float) -> np.ndarray:
+    """Indices of recorded rows at rotor angles that are whole multiples of `period`."""
+    angle = history["rotor_angle"]
+    offset = angle / period - np.round(angle / period)
+    return np.flatnonzero(np.abs(offset) * period < BOUNDARY_TOLERANCE)
+
+
+def summarise(history: History, first: int, last: int, rotor_inertia: float, min_dwell: float) -> WindowSummary:
+    """WindowSummary between recorded rows `first` and `last` (inclusive)."""
+    col = history.__getitem__
+    window = slice(first, last + 1)
+    time = col("time")[window]
+    duration = time[-1] - time[0]
+    work = {name: col(name)[last] - col(name)[first]
+            for name in ("work_in", "work_out", "work_friction", "work_damping")}
+    omega = col("rotor_speed")
+    kinetic = col("kinetic_energy")[last] - col("kinetic_energy")[first]
+    elastic = col("contact_energy")[last] - col("contact_energy")[first]
+    rotor = 0.5 * rotor_inertia * (omega[last] ** 2 - omega[first] ** 2)
+    residual = (work["work_in"] - work["work_out"] - work["work_friction"] - work["work_damping"] - kinetic
+                - elastic - rotor)
+    angle_turned = col("rotor_angle")[last] - col("rotor_angle")[first]
+    stator = col("stator_contact_moment")[window] + col("stator_gas_moment")[window]
+    stator_mean = float(np.trapezoid(stator, time) / duration)
+    forces = tuple(float(np.max(col(f"normal_force_{k}")[window])) for k in range(1, 7))
+    dwell = mode_dwell(time, col("contact_mode")[window])
+    return WindowSummary(
+        start_time=float(time[0]), end_time=float(time[-1]),
+        input_power=work["work_in"] / duration, output_power=work["work_out"] / duration,
+        friction_power=work["work_friction"] / duration, damping_power=work["work_damping"] / duration,
+        mechanical_efficiency=work["work_out"] / work["work_in"],
+        energy_residual=residual / work["work_in"],
+        driving_torque=work["work_in"] / angle_turned, stator_torque=stator_mean,
+        max_normal_force=forces, max_tilt=float(np.max(np.abs(col("vane_tilt")[window]))),
+        mode_dwell=dwell, distinct_modes=tuple(distinct_modes(dwell, min_dwell)))
+
+
+def windows(history: History, period: float, rotor_inertia: float, min_dwell: float) -> list[WindowSummary]:
+    """Summaries of every complete window of `period` rad of rotor angle in the history."""
+    rows = boundary_rows(history, period)
+    return [summarise(history, a, b, rotor_inertia, min_dwell) for a, b in zip(rows[:-1], rows[1:])]
+
+
+def revolutions(simulation) -> list[WindowSummary]:
+    """Per-revolution summaries of a simulation's recorded history (SPEC §6.4)."""
+    p = simulation.params
+    return windows(simulation.history, 2.0 * math.pi, p.rotor_inertia, p.mode_dwell_time)
+
+
+def lobes(simulation) -> list[WindowSummary]:
+    """Per-lobe summaries (2 pi / z of rotor angle each), for the z-fold periodicity check (SPEC §11 T13)."""
+    p = simulation.params
+    return windows(simulation.history, 2.0 * math.pi / p.lobes, p.rotor_inertia, p.mode_dwell_time)
