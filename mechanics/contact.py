@@ -9,7 +9,7 @@ import math
 
 from numba import njit
 
-from .geometry import closest_pitch_parameter, pitch_frame
+from .geometry import closest_pitch_frame
 
 # candidate types of the slot-mouth regions c1/c2 (SPEC §4.2), used by the extended mode key
 NO_CANDIDATE, EDGE_ON_FACE, EDGE_ON_ARC, TIP_ON_WALL = 0, 1, 2, 3
@@ -82,24 +82,24 @@ def slot_bottom_contact(side, gx, gy, exi_x, exi_y, er_x, er_y, m):
 
 
 @njit(cache=True)
-def tip_contact(tip_x, tip_y, exi_x, exi_y, u_start, m):
+def tip_contact(tip_x, tip_y, exi_x, exi_y, parameter_offset, m):
     """Tip circle vs stator, regions c5 (psi_c > 0) and c6 (psi_c < 0) (SPEC §2.6, §4.4).
 
     g_C = (T - C(u*)).n(u*),  delta = g_C - c_S,  n_contact = -n(u*),  P = T + rho n(u*),
     psi_c = atan2(n.e_eta, n.e_xi),  kappa_S = kappa_C/(1 + d kappa_C),  1/R* = 1/rho - kappa_S.
-    Returns (delta, n_x, n_y, P_x, P_y, vane curvature, other curvature, u*, psi_c, |S(u*)|^2).
+    The search starts at u = atan2(T) + parameter_offset (the offset u* - atan2(T) of the last accepted step).
+    Returns (delta, n_x, n_y, P_x, P_y, vane curvature, other curvature, u*, sin psi_c, cos psi_c, |S(u*)|^2).
     """
-    u, _ = closest_pitch_parameter(tip_x, tip_y, u_start, m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell,
-                                   m.base_radius)
-    cx, cy, nx, ny, _, curvature = pitch_frame(u, m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell,
-                                               m.base_radius)
+    u, cx, cy, nx, ny, curvature = closest_pitch_frame(
+        tip_x, tip_y, math.atan2(tip_y, tip_x) + parameter_offset, m.law, m.stroke, m.lobes, m.bottom_dwell,
+        m.top_dwell, m.base_radius)
     gap = (tip_x - cx) * nx + (tip_y - cy) * ny
-    contact_angle = math.atan2(-nx * exi_y + ny * exi_x, nx * exi_x + ny * exi_y)
     stator_curvature = curvature / (1.0 + m.envelope_offset * curvature)
     sx = cx + m.envelope_offset * nx
     sy = cy + m.envelope_offset * ny
     return (gap - m.stator_clearance, -nx, -ny, tip_x + m.tip_radius * nx, tip_y + m.tip_radius * ny,
-            1.0 / m.tip_radius, -stator_curvature, u, contact_angle, sx * sx + sy * sy)
+            1.0 / m.tip_radius, -stator_curvature, u, -nx * exi_y + ny * exi_x, nx * exi_x + ny * exi_y,
+            sx * sx + sy * sy)
 
 
 @njit(cache=True)
@@ -136,7 +136,7 @@ def elastic_force(penetration, vane_curvature, other_curvature, m):
     """
     if m.stiffness_model == HERTZ_POINT:
         stiffness = hertz_stiffness(vane_curvature, other_curvature, m.effective_modulus)
-        force = stiffness * penetration ** HERTZ_EXPONENT
+        force = stiffness * penetration * math.sqrt(penetration)      # K delta^1.5
         return force, force * penetration / (HERTZ_EXPONENT + 1.0)
     a, b = _line_contact_constants(vane_curvature, other_curvature, m)
     log_force = math.log(penetration / (a - b * math.log(100.0)))     # start from the slope at F = 100 N
@@ -163,7 +163,10 @@ def normal_force(elastic, penetration_rate, onset_velocity, restitution):
 def friction_coefficient_effective(slip_speed, m):
     """mu_eff(|v_t|): Threlfall mu (1 - exp(-3|v_t|/v_0)) or Ambrosio's piecewise-linear ramp (SPEC §5.3)."""
     if m.friction_model == THRELFALL:
-        return m.friction_coefficient * (1.0 - math.exp(-3.0 * slip_speed / m.friction_velocity))
+        exponent = 3.0 * slip_speed / m.friction_velocity
+        if exponent > 40.0:         # 1 - exp(-40) is 1.0 in double precision
+            return m.friction_coefficient
+        return m.friction_coefficient * (1.0 - math.exp(-exponent))
     if slip_speed < m.friction_velocity:
         return 0.0
     if slip_speed > m.friction_velocity_full:

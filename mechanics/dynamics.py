@@ -10,14 +10,14 @@ from numba import njit
 
 from .contact import (elastic_force, friction_coefficient_effective, normal_force, slot_bottom_contact,
                       slot_mouth_contact, tip_contact)
-from .gas_loads import rotor_gas_moment, stator_gas_moment, vane_gas_load
-from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_PARAMETER, MEM_LOBE_COUNT, MEM_LOBE_START,
-                     MEM_ONSET_VELOCITY, O_ACCELERATION, O_ANGLE, O_CANDIDATE, O_CLOSEST_PARAMETER, O_CONTACT_ANGLE,
+from .gas_loads import gap_moment, mouth_gap_moment, rotor_gas_moment, stator_gas_moment, vane_gas_load
+from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT, MEM_LOBE_START,
+                     MEM_ONSET_VELOCITY, O_ACCELERATION, O_ANGLE, O_CANDIDATE, O_CLOSEST_OFFSET, O_CONTACT_ANGLE,
                      O_CONTACT_ENERGY, O_DAMPING_POWER, O_DISPLACEMENT, O_DRIVING_TORQUE, O_FRICTION_FORCE,
                      O_FRICTION_POWER, O_INPUT_POWER, O_KINETIC_ENERGY, O_LEADING_PRESSURE, O_LOBE_COUNT, O_MODE,
                      O_NORMAL_FORCE, O_OUTPUT_POWER, O_PENETRATION, O_PENETRATION_RATE, O_RADIAL_ACCELERATION,
                      O_RADIAL_VELOCITY, O_ROTOR_FORCE, O_SPEED, O_STATOR_FORCE, O_STATOR_GAS_MOMENT,
-                     O_STATOR_MOMENT, O_TANGENTIAL_ACCELERATION, O_TANGENTIAL_VELOCITY, O_TILT, O_TIME,
+                     O_STATOR_MOMENT, O_GAP_MOMENT, O_TANGENTIAL_ACCELERATION, O_TANGENTIAL_VELOCITY, O_TILT, O_TIME,
                      O_TRAILING_PRESSURE, O_WORK, TIP_MEMORY_SLOT, TIP_ON_FLAT_FACE, VANE_BOTTOMED, VX, VY, WORK_IN,
                      X, Y)
 from .speed import rotor_motion
@@ -77,9 +77,10 @@ def _mouth_level_and_junction_radius(side, gx, gy, tip_x, tip_y, exi_x, exi_y, e
 
 
 @njit(cache=True)
-def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
-    """Right-hand side f(t, y) and the output row; returns a status code (0 = fine). SPEC §8.1b:
+def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True):
+    """Right-hand side f(t, y) and, if `report`, the output row; returns a status code (0 = fine). SPEC §8.1b:
 
+    Intermediate integrator stages pass report=False and skip the quantities that are only reported.
     q_ddot3 = Q3/[m3, m3, J3];  lambda3 = Q1phi;  lambda6 = Q2phi - J2 theta_ddot;  T_d = -lambda6
     dW_in/dt = T_d omega,  dW_out/dt = -P_gas,  dW_fric/dt = sum mu_eff F_n |v_t|,  dW_damp/dt = sum (F_n - F_el) delta_dot
     """
@@ -112,9 +113,10 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
     contact_energy = 0.0
     mode = 0
 
-    tip = tip_contact(tip_x, tip_y, exi_x, exi_y, memory[MEM_CLOSEST_PARAMETER], m)
-    contact_angle = tip[8]
-    if abs(contact_angle) > 0.5 * math.pi:
+    tip = tip_contact(tip_x, tip_y, exi_x, exi_y, memory[MEM_CLOSEST_OFFSET], m)
+    sin_contact_angle = tip[8]
+    cos_contact_angle = tip[9]
+    if cos_contact_angle < 0.0:
         status = TIP_ON_FLAT_FACE
     mouth_leading = slot_mouth_contact(1.0, gx, gy, exi_x, exi_y, er_x, er_y, m)
     mouth_trailing = slot_mouth_contact(-1.0, gx, gy, exi_x, exi_y, er_x, er_y, m)
@@ -122,7 +124,7 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
     bottom_trailing = slot_bottom_contact(-1.0, gx, gy, exi_x, exi_y, er_x, er_y, m)
     if min(bottom_leading[7], bottom_trailing[7]) <= m.slot_bottom_radius:
         status = VANE_BOTTOMED
-    tip_region = 4 if contact_angle > 0.0 else 5
+    tip_region = 4 if sin_contact_angle > 0.0 else 5
     out[O_CANDIDATE] = mouth_leading[7]
     out[O_CANDIDATE + 1] = mouth_trailing[7]
 
@@ -199,11 +201,12 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
     xi_mouth_trailing, junction_trailing = _mouth_level_and_junction_radius(-1.0, gx, gy, tip_x, tip_y, exi_x,
                                                                            exi_y, er_x, er_y, m)
     gas_fx, gas_fy, gas_moment, gas_power_vane = vane_gas_load(
-        gx, gy, vx, vy, phi_dot, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing, contact_angle,
+        gx, gy, vx, vy, phi_dot, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing, sin_contact_angle,
+        cos_contact_angle,
         leading_pressure, trailing_pressure, back_pressure, m)
-    gas_moment_rotor = rotor_gas_moment(junction_leading, junction_trailing, leading_pressure,
-                                        trailing_pressure, m)
-    gas_moment_stator = stator_gas_moment(tip[9], leading_pressure, trailing_pressure, m)
+    gas_moment_rotor = rotor_gas_moment(junction_leading, junction_trailing, bottom_leading[7],
+                                        bottom_trailing[7], leading_pressure, trailing_pressure, back_pressure, m)
+    gas_moment_stator = stator_gas_moment(tip[10], leading_pressure, trailing_pressure, m)
     force_x += gas_fx
     force_y += gas_fy
     moment_vane += gas_moment
@@ -227,6 +230,8 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
     dydt[WORK_IN + 2] = friction_power
     dydt[WORK_IN + 3] = damping_power
 
+    if not report:
+        return status
     # outputs (SPEC §3.4, §6.4)
     rx = m.tip_centre * exi_x
     ry = m.tip_centre * exi_y
@@ -251,6 +256,15 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
     out[O_STATOR_FORCE + 1] = stator_fy
     out[O_STATOR_MOMENT] = moment_stator
     out[O_STATOR_GAS_MOMENT] = gas_moment_stator
+    mouth_gaps = 0.0
+    for side in (1.0, -1.0):
+        edge_x = m.mouth_radius * er_x - side * m.half_slot_width * er_y
+        edge_y = m.mouth_radius * er_y + side * m.half_slot_width * er_x
+        mouth_gaps += mouth_gap_moment(
+            side, edge_x, edge_y, xi_mouth_leading if side > 0.0 else xi_mouth_trailing,
+            junction_leading if side > 0.0 else junction_trailing, gx, gy, exi_x, exi_y, er_x, er_y,
+            leading_pressure if side > 0.0 else trailing_pressure, m)
+    out[O_GAP_MOMENT] = gap_moment(tip[3], tip[4], tip[10], mouth_gaps, 0.0, leading_pressure, trailing_pressure, m)
     out[O_ROTOR_FORCE] = rotor_fx
     out[O_ROTOR_FORCE + 1] = rotor_fy
     out[O_DRIVING_TORQUE] = driving_torque
@@ -262,8 +276,9 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out):
     out[O_TRAILING_PRESSURE] = trailing_pressure
     out[O_KINETIC_ENERGY] = 0.5 * m.vane_mass * (vx * vx + vy * vy) + 0.5 * m.vane_inertia * phi_dot * phi_dot
     out[O_CONTACT_ENERGY] = contact_energy
-    out[O_CONTACT_ANGLE] = contact_angle
-    out[O_CLOSEST_PARAMETER] = tip[7]
+    out[O_CONTACT_ANGLE] = math.atan2(sin_contact_angle, cos_contact_angle)
+    offset = tip[7] - math.atan2(tip_y, tip_x)
+    out[O_CLOSEST_OFFSET] = offset - 2.0 * math.pi * math.floor(offset / (2.0 * math.pi) + 0.5)
     out[O_LOBE_COUNT] = memory[MEM_LOBE_COUNT]
     for k in range(4):
         out[O_WORK + k] = y[WORK_IN + k]

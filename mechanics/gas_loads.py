@@ -17,7 +17,7 @@ def _point_velocity(px, py, gx, gy, vx, vy, angular_velocity):
 
 @njit(cache=True)
 def vane_gas_load(gx, gy, vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing,
-                  contact_angle, leading_pressure, trailing_pressure, back_pressure, m):
+                  sin_contact_angle, cos_contact_angle, leading_pressure, trailing_pressure, back_pressure, m):
     """Resultant (F_x, F_y, moment about G) and power sum F_i . v3(point_i) of the gas on the vane (SPEC §6.2).
 
     flat face side s:  F = -s p_s L l_s e_eta at ((xi_E + xi_T)/2, s t/2),  l_s = xi_T - xi_E,s  (if > 0)
@@ -48,8 +48,8 @@ def vane_gas_load(gx, gy, vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leadi
             px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
             power += f_x * px + f_y * py
     # tip arcs, through T: leading [psi_c, pi/2] at p_L, trailing [-pi/2, psi_c] at p_T
-    sin_c = math.sin(contact_angle)
-    cos_c = math.cos(contact_angle)
+    sin_c = sin_contact_angle
+    cos_c = cos_contact_angle
     scale_l = -leading_pressure * length * m.tip_radius
     scale_t = -trailing_pressure * length * m.tip_radius
     along = scale_l * (1.0 - sin_c) + scale_t * (sin_c + 1.0)
@@ -78,12 +78,16 @@ def vane_gas_load(gx, gy, vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leadi
 
 
 @njit(cache=True)
-def rotor_gas_moment(junction_radius_leading, junction_radius_trailing, leading_pressure, trailing_pressure, m):
-    """Moment about O of the gas on the slot walls above a recessed tip junction (SPEC §6.2):
+def rotor_gas_moment(junction_radius_leading, junction_radius_trailing, corner_radius_leading,
+                     corner_radius_trailing, leading_pressure, trailing_pressure, back_pressure, m):
+    """Moment about O of the gas on the rotor's slot walls (SPEC §6.2, extended to the back chamber):
 
-    M = sum_s s p_s L (R_m^2 - r_J,s^2)/2  for r_J,s < R_m.
+    crescents above a recessed tip junction:  sum_s s p_s L (R_m^2 - r_J,s^2)/2  for r_J,s < R_m
+    back chamber, walls from the slot bottom up to the vane's bottom corners:  p_b L (r_B+^2 - r_B-^2)/2
+    The second term is the rotor's share of the closed back-chamber contour whose vane share is the bottom-face
+    load; it is zero for an untilted vane and closes the global torque balance for a tilted one.
     """
-    moment = 0.0
+    moment = 0.5 * back_pressure * m.axial_length * (corner_radius_leading ** 2 - corner_radius_trailing ** 2)
     if junction_radius_leading < m.mouth_radius:
         moment += leading_pressure * m.axial_length * (m.mouth_radius ** 2 - junction_radius_leading ** 2) / 2.0
     if junction_radius_trailing < m.mouth_radius:
@@ -97,3 +101,40 @@ def stator_gas_moment(stator_radius_squared, leading_pressure, trailing_pressure
     valley_radius = m.rotor_radius + m.stator_clearance
     return 0.5 * m.axial_length * (leading_pressure - trailing_pressure) * (stator_radius_squared
                                                                             - valley_radius ** 2)
+
+
+@njit(cache=True)
+def mouth_gap_moment(side, edge_x, edge_y, mouth_level, junction_radius, gx, gy, exi_x, exi_y, er_x, er_y,
+                     pressure, m):
+    """Moment of chamber pressure p on the slot-mouth gap of one side, the short segment from the slot edge E
+    (or, for a recessed tip, from the wall point at the junction radius) to the vane (E-F or W-J), carried by no
+    body: M = -s 1/2 p L (|a|^2 - |b|^2) for the segment a -> b (SPEC §6.2's wall-arc rule)."""
+    if junction_radius < m.mouth_radius:
+        a_x = junction_radius * er_x - side * m.half_slot_width * er_y
+        a_y = junction_radius * er_y + side * m.half_slot_width * er_x
+        level = m.tip_centre
+    else:
+        a_x = edge_x
+        a_y = edge_y
+        level = min(mouth_level, m.tip_centre)
+    b_x = gx + level * exi_x - side * m.half_thickness * exi_y
+    b_y = gy + level * exi_y + side * m.half_thickness * exi_x
+    return side * 0.5 * pressure * m.axial_length * (a_x * a_x + a_y * a_y - b_x * b_x - b_y * b_y)
+
+
+@njit(cache=True)
+def gap_moment(vane_point_x, vane_point_y, stator_radius_squared, mouth_gap_leading, mouth_gap_trailing,
+               leading_pressure, trailing_pressure, m):
+    """Moment about O of the chamber pressures on the gaps that bound the chambers but belong to no body: the tip
+    gap (P_V = T + rho n to S(u*)), the end-valley gap (R_r to R_r + c_S, leading chamber against the idle lobe
+    at suction) and the two slot-mouth gaps:
+
+    M_gap = 1/2 L (p_L - p_T)(|P_V|^2 - |S(u*)|^2) + 1/2 L (p_L - p_s)((R_r + c_S)^2 - R_r^2) + M_mouth,+ + M_mouth,-
+    A diagnostic, not a load: it closes the global angular-momentum balance
+    <T_d> = <lambda3 + M_gas,stator + M_gap> (SPEC §11 T11) when the tip does not sit exactly on the stator.
+    """
+    tip = 0.5 * m.axial_length * (leading_pressure - trailing_pressure) * (
+        vane_point_x * vane_point_x + vane_point_y * vane_point_y - stator_radius_squared)
+    valley = 0.5 * m.axial_length * (leading_pressure - m.suction_pressure) * (
+        (m.rotor_radius + m.stator_clearance) ** 2 - m.rotor_radius ** 2)
+    return tip + valley + mouth_gap_leading + mouth_gap_trailing

@@ -145,6 +145,47 @@ def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, t
     return u, -1
 
 
+@njit(cache=True)
+def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
+    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, kappa_C), for the time loop (SPEC §2.6).
+
+    The same Newton iteration as `closest_pitch_parameter`; the frame is built from the displacement values of the
+    last iterate, which differs from u* by less than 1e-13 rad, so no extra trigonometric evaluation is needed.
+    """
+    u = u_start
+    for _ in range(20):
+        s, s1, s2, _ = displacement(u, law, stroke, lobes, bottom_dwell, top_dwell)
+        r = base_radius + s
+        c = math.cos(u)
+        si = math.sin(u)
+        cx = r * c
+        cy = r * si
+        d1x = s1 * c - r * si
+        d1y = s1 * si + r * c
+        ar = s2 - r
+        at = 2.0 * s1
+        gx = tx - cx
+        gy = ty - cy
+        f = gx * d1x + gy * d1y
+        df = -(d1x * d1x + d1y * d1y) + gx * (ar * c - at * si) + gy * (ar * si + at * c)
+        if df >= 0.0:
+            break
+        du = -f / df
+        if du > 0.05:
+            du = 0.05
+        elif du < -0.05:
+            du = -0.05
+        if abs(du) < 1e-13:
+            speed = math.sqrt(r * r + s1 * s1)
+            nr = r / speed
+            nt = -s1 / speed
+            return (u, cx, cy, nr * c - nt * si, nr * si + nt * c, (r * r + 2.0 * s1 * s1 - r * s2) / speed ** 3)
+        u += du
+    u, _ = closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
+    cx, cy, nx, ny, _, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
+    return u, cx, cy, nx, ny, curvature
+
+
 # ---------------------------------------------------------------------------------------------------------
 # Whole-curve properties (set-up, validation and tests; not in the time loop)
 

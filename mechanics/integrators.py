@@ -12,8 +12,8 @@ import numpy as np
 from numba import njit
 
 from .dynamics import evaluate
-from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_PARAMETER, MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE,
-                     MEM_ONSET_VELOCITY, NOT_FINITE, O_CLOSEST_PARAMETER, O_CONTACT_ANGLE, O_MODE, O_PENETRATION,
+from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE,
+                     MEM_ONSET_VELOCITY, NOT_FINITE, O_CLOSEST_OFFSET, O_CONTACT_ANGLE, O_MODE, O_PENETRATION,
                      O_PENETRATION_RATE, OUTPUT_SIZE, REACHED_END, RECORD_FULL, REGIONS, STEP_TOO_SMALL,
                      TIP_MEMORY_SLOT, VX, VY, WORK_IN, X, Y)
 from .speed import ramp_end_time, rotor_motion, time_of_angle
@@ -93,8 +93,7 @@ def _clip_to_events(t, step, t_end, law, memory, m):
 @njit(cache=True)
 def _accept(out, memory, m):
     """Update the memory after an accepted step (SPEC §5.1, §8.1); return True if the contact mode changed."""
-    u = out[O_CLOSEST_PARAMETER]
-    memory[MEM_CLOSEST_PARAMETER] = u - 2.0 * math.pi * math.floor(u / (2.0 * math.pi) + 0.5)
+    memory[MEM_CLOSEST_OFFSET] = out[O_CLOSEST_OFFSET]
     tip_region = 4 if out[O_CONTACT_ANGLE] > 0.0 else 5
     for slot in range(5):
         region = tip_region if slot == TIP_MEMORY_SLOT else slot
@@ -113,6 +112,13 @@ def _accept(out, memory, m):
 def _cross_valley(memory, m):
     memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
     memory[MEM_LOBE_COUNT] += 1.0
+
+
+@njit(cache=True)
+def _combine(target, y, h, c1, k1, c2, k2, c3, k3, c4, k4, c5, k5, c6, k6):
+    """target = y + h (c1 k1 + ... + c6 k6), element by element (no temporaries in the hot loop)."""
+    for i in range(y.size):
+        target[i] = y[i] + h * (c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + c4 * k4[i] + c5 * k5[i] + c6 * k6[i])
 
 
 # Dormand-Prince 5(4) tableau
@@ -143,6 +149,7 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
     stage = np.empty(n)
     y_new = np.empty(n)
     error = np.empty(n)
+    zero = np.zeros(n)
     out = np.empty(OUTPUT_SIZE)
     rows = 0
     evaluate(t, y, m, law, pressure_table, memory, k1, out)
@@ -155,20 +162,20 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
             return RECORD_FULL, t, rows
         h = min(h, m.max_step)
         step, event = _clip_to_events(t, h, t_end, law, memory, m)
-        stage[:] = y + step * A21 * k1
-        failure = evaluate(t + step / 5.0, stage, m, law, pressure_table, memory, k2, out)
-        stage[:] = y + step * (A31 * k1 + A32 * k2)
-        failure |= evaluate(t + 3.0 * step / 10.0, stage, m, law, pressure_table, memory, k3, out)
-        stage[:] = y + step * (A41 * k1 + A42 * k2 + A43 * k3)
-        failure |= evaluate(t + 4.0 * step / 5.0, stage, m, law, pressure_table, memory, k4, out)
-        stage[:] = y + step * (A51 * k1 + A52 * k2 + A53 * k3 + A54 * k4)
-        failure |= evaluate(t + 8.0 * step / 9.0, stage, m, law, pressure_table, memory, k5, out)
-        stage[:] = y + step * (A61 * k1 + A62 * k2 + A63 * k3 + A64 * k4 + A65 * k5)
-        failure |= evaluate(t + step, stage, m, law, pressure_table, memory, k6, out)
-        y_new[:] = y + step * (B1 * k1 + B3 * k3 + B4 * k4 + B5 * k5 + B6 * k6)
+        _combine(stage, y, step, A21, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
+        failure = evaluate(t + step / 5.0, stage, m, law, pressure_table, memory, k2, out, False)
+        _combine(stage, y, step, A31, k1, A32, k2, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
+        failure |= evaluate(t + 3.0 * step / 10.0, stage, m, law, pressure_table, memory, k3, out, False)
+        _combine(stage, y, step, A41, k1, A42, k2, A43, k3, 0.0, k1, 0.0, k1, 0.0, k1)
+        failure |= evaluate(t + 4.0 * step / 5.0, stage, m, law, pressure_table, memory, k4, out, False)
+        _combine(stage, y, step, A51, k1, A52, k2, A53, k3, A54, k4, 0.0, k1, 0.0, k1)
+        failure |= evaluate(t + 8.0 * step / 9.0, stage, m, law, pressure_table, memory, k5, out, False)
+        _combine(stage, y, step, A61, k1, A62, k2, A63, k3, A64, k4, A65, k5, 0.0, k1)
+        failure |= evaluate(t + step, stage, m, law, pressure_table, memory, k6, out, False)
+        _combine(y_new, y, step, B1, k1, B3, k3, B4, k4, B5, k5, B6, k6, 0.0, k1)
         failure |= evaluate(t + step, y_new, m, law, pressure_table, memory, k7, out)
         counters[EVALUATIONS] += 6
-        error[:] = step * (E1 * k1 + E3 * k3 + E4 * k4 + E5 * k5 + E6 * k6 + E7 * k7)
+        _combine(error, zero, step, E1, k1, E3, k3, E4, k4, E5, k5, E6, k6, E7, k7)
         finite = _all_finite(y_new) and _all_finite(error)
         err = _error_norm(y_new, error, m) if finite else math.inf
         if err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m):
@@ -186,7 +193,7 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
         counters[ACCEPTED] += 1
         t = t_end if event == END_EVENT else t + step
         y[:] = y_new
-        k1[:] = k7
+        k1, k7 = k7, k1
         record[rows, :] = out
         rows += 1
         if _accept(out, memory, m):
@@ -205,13 +212,13 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
 @njit(cache=True)
 def _rk4_step(t, y, h, k1, m, law, pressure_table, memory, k2, k3, k4, stage, y_new, out):
     """Classical RK4 (thesis Table 4.1): y+ = y + h (k1 + 2 k2 + 2 k3 + k4)/6, k1 given."""
-    stage[:] = y + 0.5 * h * k1
-    failure = evaluate(t + 0.5 * h, stage, m, law, pressure_table, memory, k2, out)
-    stage[:] = y + 0.5 * h * k2
-    failure |= evaluate(t + 0.5 * h, stage, m, law, pressure_table, memory, k3, out)
-    stage[:] = y + h * k3
-    failure |= evaluate(t + h, stage, m, law, pressure_table, memory, k4, out)
-    y_new[:] = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    _combine(stage, y, 0.5 * h, 1.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
+    failure = evaluate(t + 0.5 * h, stage, m, law, pressure_table, memory, k2, out, False)
+    _combine(stage, y, 0.5 * h, 1.0, k2, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
+    failure |= evaluate(t + 0.5 * h, stage, m, law, pressure_table, memory, k3, out, False)
+    _combine(stage, y, h, 1.0, k3, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
+    failure |= evaluate(t + h, stage, m, law, pressure_table, memory, k4, out, False)
+    _combine(y_new, y, h / 6.0, 1.0, k1, 2.0, k2, 2.0, k3, 1.0, k4, 0.0, k1, 0.0, k1)
     return failure
 
 
@@ -249,12 +256,14 @@ def advance_abm4(t, y, t_end, m, law, pressure_table, memory, control, history, 
         step, event = _clip_to_events(t, h, t_end, law, memory, m)
         multistep = valid >= 4 and event == NO_EVENT
         if multistep:
-            y_pred[:] = y + h / 24.0 * (55.0 * history[0] - 59.0 * history[1] + 37.0 * history[2]
-                                        - 9.0 * history[3])
-            failure = evaluate(t + h, y_pred, m, law, pressure_table, memory, f_pred, out)
-            y_new[:] = y + h / 24.0 * (9.0 * f_pred + 19.0 * history[0] - 5.0 * history[1] + history[2])
+            _combine(y_pred, y, h / 24.0, 55.0, history[0], -59.0, history[1], 37.0, history[2], -9.0, history[3],
+                     0.0, f_new, 0.0, f_new)
+            failure = evaluate(t + h, y_pred, m, law, pressure_table, memory, f_pred, out, False)
+            _combine(y_new, y, h / 24.0, 9.0, f_pred, 19.0, history[0], -5.0, history[1], 1.0, history[2],
+                     0.0, f_new, 0.0, f_new)
             counters[EVALUATIONS] += 1
-            error[:] = 19.0 / 270.0 * (y_new - y_pred)
+            for i in range(n):
+                error[i] = 19.0 / 270.0 * (y_new[i] - y_pred[i])
         else:
             failure = _rk4_step(t, y, step, history[0], m, law, pressure_table, memory, k2, k3, k4, stage, y_new,
                                 out)

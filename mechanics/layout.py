@@ -10,7 +10,7 @@ X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DA
 STATE_SIZE = 10
 
 # memory
-MEM_CLOSEST_PARAMETER = 0      # warm start u* of the closest-point search
+MEM_CLOSEST_OFFSET = 0         # warm start: u* minus the polar angle of the tip centre, last accepted step
 MEM_LOBE_START = 1             # rotor angle of the valley that opened the current lobe
 MEM_ONSET_VELOCITY = 2         # 5 slots: c1, c2, c3, c4 and the tip (c5/c6 share one, the tip contact is one)
 MEM_MODE = 7                   # contact-mode mask of the last accepted step
@@ -28,11 +28,11 @@ OUTPUT_NAMES = (
     *(f"penetration_{k}" for k in range(1, 7)),
     *(f"penetration_rate_{k}" for k in range(1, 7)),
     "contact_mode", "mouth_candidate_1", "mouth_candidate_2",
-    "stator_force_x", "stator_force_y", "stator_contact_moment", "stator_gas_moment",
+    "stator_force_x", "stator_force_y", "stator_contact_moment", "stator_gas_moment", "gap_moment",
     "rotor_force_x", "rotor_force_y", "driving_torque",
     "input_power", "output_power", "friction_power", "damping_power",
     "leading_pressure", "trailing_pressure", "kinetic_energy", "contact_energy",
-    "contact_angle", "closest_parameter", "lobe_count",
+    "contact_angle", "closest_parameter_offset", "lobe_count",
     "work_in", "work_out", "work_friction", "work_damping",
 )
 OUTPUT_INDEX = {name: i for i, name in enumerate(OUTPUT_NAMES)}
@@ -49,6 +49,7 @@ O_CANDIDATE = OUTPUT_INDEX["mouth_candidate_1"]
 O_STATOR_FORCE = OUTPUT_INDEX["stator_force_x"]
 O_STATOR_MOMENT = OUTPUT_INDEX["stator_contact_moment"]
 O_STATOR_GAS_MOMENT = OUTPUT_INDEX["stator_gas_moment"]
+O_GAP_MOMENT = OUTPUT_INDEX["gap_moment"]
 O_ROTOR_FORCE = OUTPUT_INDEX["rotor_force_x"]
 O_DRIVING_TORQUE = OUTPUT_INDEX["driving_torque"]
 O_INPUT_POWER = OUTPUT_INDEX["input_power"]
@@ -60,7 +61,7 @@ O_TRAILING_PRESSURE = OUTPUT_INDEX["trailing_pressure"]
 O_KINETIC_ENERGY = OUTPUT_INDEX["kinetic_energy"]
 O_CONTACT_ENERGY = OUTPUT_INDEX["contact_energy"]
 O_CONTACT_ANGLE = OUTPUT_INDEX["contact_angle"]
-O_CLOSEST_PARAMETER = OUTPUT_INDEX["closest_parameter"]
+O_CLOSEST_OFFSET = OUTPUT_INDEX["closest_parameter_offset"]
 O_LOBE_COUNT = OUTPUT_INDEX["lobe_count"]
 O_WORK = OUTPUT_INDEX["work_in"]
 

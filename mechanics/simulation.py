@@ -16,7 +16,7 @@ from .errors import IntegrationError
 from .geometry import law_arguments
 from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, advance_abm4,
                           advance_dopri5)
-from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_PARAMETER, MEM_LOBE_START, MEMORY_SIZE,
+from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_LOBE_START, MEMORY_SIZE,
                      OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE, REACHED_END, RECORD_FULL, STATE_SIZE, STATUS_TEXT, VX,
                      VY, X, Y)
 from .machine import machine_from_parameters
@@ -85,7 +85,6 @@ class Simulation:
         self.state = self._nominal_state(float(initial_angle), rotor_motion(0.0, self.speed_law)[1])
         self.memory = np.zeros(MEMORY_SIZE)
         lobe = 2.0 * math.pi / self.params.lobes
-        self.memory[MEM_CLOSEST_PARAMETER] = initial_angle
         self.memory[MEM_LOBE_START] = math.floor(initial_angle / lobe) * lobe
         self.control = np.zeros(CONTROL_SIZE)
         self.control[CONTROL_STEP] = self.params.initial_step
