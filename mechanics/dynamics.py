@@ -142,12 +142,13 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True)
         else:
             contact = (-math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         delta, nx, ny, px, py, vane_curvature, other_curvature = contact
-        out[O_PENETRATION + region] = delta
         out[O_NORMAL_FORCE + region] = 0.0
         out[O_FRICTION_FORCE + region] = 0.0
-        out[O_PENETRATION_RATE + region] = 0.0
-        if delta == -math.inf:      # no valid candidate in this region
+        if delta == -math.inf:      # no valid candidate in this region: reported as not applicable
+            out[O_PENETRATION + region] = math.nan
+            out[O_PENETRATION_RATE + region] = math.nan
             continue
+        out[O_PENETRATION + region] = delta
         # relative velocity of the vane point P against the other body (rotor for c1-c4, stator for c5/c6)
         rel_vx = vx - phi_dot * (py - gy)
         rel_vy = vy + phi_dot * (px - gx)

@@ -29,6 +29,7 @@ class WindowSummary:
     energy_residual: float        # (W_in - W_out - W_fric - W_damp - dKE - dPE - J2 int(omega theta_ddot)) / W_in
     driving_torque: float         # <T_d> = W_in / angle turned [N m]
     stator_torque: float          # <lambda3 + M_gas,stator>, trapezoidal mean [N m]
+    gap_torque: float             # <M_gap>, pressure moment on the gaps no body carries [N m]
     max_normal_force: tuple       # max F_n per region c1..c6 [N]
     max_tilt: float               # max |phi3 - theta| [rad]
     mode_dwell: dict              # mode mask -> cumulative dwell [s]
@@ -39,12 +40,21 @@ class WindowSummary:
         """|<T_d> - <lambda3 + M_gas,stator>| / |<T_d>| (SPEC §11 T11)."""
         return abs(self.driving_torque - self.stator_torque) / abs(self.driving_torque)
 
+    @property
+    def torque_balance_error_with_gaps(self) -> float:
+        """|<T_d> - <lambda3 + M_gas,stator + M_gap>| / |<T_d>|: the balance with every pressure boundary."""
+        return abs(self.driving_torque - self.stator_torque - self.gap_torque) / abs(self.driving_torque)
+
 
 def boundary_rows(history: History, period: float) -> np.ndarray:
-    """Indices of recorded rows at rotor angles that are whole multiples of `period`."""
+    """Indices of the recorded rows at rotor angles that are whole multiples of `period` (one per multiple: the
+    first row that reaches it, which is the valley event row; a slow start can leave many rows near theta = 0)."""
     angle = history["rotor_angle"]
-    offset = angle / period - np.round(angle / period)
-    return np.flatnonzero(np.abs(offset) * period < BOUNDARY_TOLERANCE)
+    multiple = np.round(angle / period)
+    near = np.abs(angle - multiple * period) < BOUNDARY_TOLERANCE
+    candidates = np.flatnonzero(near)
+    first_of_multiple = np.concatenate([[True], np.diff(multiple[candidates]) != 0])
+    return candidates[first_of_multiple]
 
 
 def summarise(history: History, first: int, last: int, rotor_inertia: float, min_dwell: float) -> WindowSummary:
@@ -64,6 +74,7 @@ def summarise(history: History, first: int, last: int, rotor_inertia: float, min
     angle_turned = col("rotor_angle")[last] - col("rotor_angle")[first]
     stator = col("stator_contact_moment")[window] + col("stator_gas_moment")[window]
     stator_mean = float(np.trapezoid(stator, time) / duration)
+    gap_mean = float(np.trapezoid(col("gap_moment")[window], time) / duration)
     forces = tuple(float(np.max(col(f"normal_force_{k}")[window])) for k in range(1, 7))
     dwell = mode_dwell(time, col("contact_mode")[window])
     return WindowSummary(
@@ -72,7 +83,7 @@ def summarise(history: History, first: int, last: int, rotor_inertia: float, min
         friction_power=work["work_friction"] / duration, damping_power=work["work_damping"] / duration,
         mechanical_efficiency=work["work_out"] / work["work_in"],
         energy_residual=residual / work["work_in"],
-        driving_torque=work["work_in"] / angle_turned, stator_torque=stator_mean,
+        driving_torque=work["work_in"] / angle_turned, stator_torque=stator_mean, gap_torque=gap_mean,
         max_normal_force=forces, max_tilt=float(np.max(np.abs(col("vane_tilt")[window]))),
         mode_dwell=dwell, distinct_modes=tuple(distinct_modes(dwell, min_dwell)))
 
