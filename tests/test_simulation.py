@@ -1,0 +1,139 @@
+"""The Simulation object as the FMU and the studies use it: advancing in pieces under a held or interpolated
+speed, save/restore, errors, and the alternative models (laws, contact and friction options, Level 0)."""
+import math
+
+import numpy as np
+import pytest
+
+from mechanics import (CompressorParameters, IntegrationError, Simulation, constant_speed, cycloidal_ramp,
+                       linear_ramp)
+from mechanics.performance import revolutions
+from mechanics.speed import RPM
+
+REVOLUTION = 0.04          # s at 1500 rpm
+
+
+def test_advancing_in_pieces_matches_one_advance():
+    """An FMU advances once per communication step; the physics must not depend on the step."""
+    params = CompressorParameters(slot_clearance=0.02e-3, stator_clearance=0.02e-3)
+    whole = Simulation(params)
+    whole.advance(3.2 * REVOLUTION)
+    pieces = Simulation(params)
+    for end in np.arange(1, 1281) * 1e-4:
+        pieces.advance(float(end), speed_rpm=1500.0)
+    assert pieces.time == pytest.approx(whole.time, abs=1e-15)
+    reference, chunked = revolutions(whole)[-1], revolutions(pieces)[-1]
+    for name in ("input_power", "output_power", "friction_power"):
+        assert getattr(chunked, name) == pytest.approx(getattr(reference, name), rel=1e-4), name
+
+
+def test_interpolated_speed_over_advances_is_a_linear_ramp():
+    """advance(t, speed_rpm, interpolate=True) moves the speed linearly over the advance: piecewise it must
+    reproduce the closed-form linear ramp (rotor angle exactly, work to integration accuracy)."""
+    params = CompressorParameters(pressure_model="polytropic")      # a table that does not depend on speed
+    ramp = Simulation(params, linear_ramp(1500.0, 0.1, start_rpm=500.0), initial_angle=0.0)
+    ramp.advance(0.1)
+    pieces = Simulation(params, constant_speed(500.0), initial_angle=0.0)
+    for k in range(1, 11):
+        pieces.advance(0.01 * k, speed_rpm=500.0 + 100.0 * k, interpolate=True)
+    assert pieces.rotor_angle == pytest.approx(ramp.rotor_angle, rel=1e-12)
+    assert pieces.rotor_speed == pytest.approx(1500.0 * RPM, rel=1e-12)
+    assert pieces.outputs["work_in"] == pytest.approx(ramp.outputs["work_in"], rel=1e-3)
+
+
+def test_held_speed_step_keeps_angle_continuous():
+    """A held speed changes omega at the advance boundary; the rotor angle stays continuous."""
+    sim = Simulation(CompressorParameters())
+    sim.advance(0.01)
+    angle = sim.rotor_angle
+    sim.advance(0.01, speed_rpm=1000.0)       # zero-length advance: only sets the speed
+    assert sim.rotor_angle == pytest.approx(angle, abs=1e-15)
+    sim.advance(0.02)
+    assert sim.rotor_angle == pytest.approx(angle + 1000.0 * RPM * 0.01, rel=1e-12)
+
+
+def test_save_and_restore_reproduce_the_continuation_exactly():
+    """get_state/set_state copy everything the loop depends on (integrator history, contact memory, ...)."""
+    for integrator in ("dopri5", "abm4"):
+        sim = Simulation(CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3,
+                                              integrator=integrator))
+        sim.advance(0.031)
+        saved = sim.get_state()
+        sim.advance(0.05)
+        first = sim.state.copy(), sim.last_output.copy()
+        sim.advance(0.07)                     # move on, then go back
+        sim.set_state(saved)
+        sim.advance(0.05)
+        assert np.array_equal(sim.state, first[0])
+        assert np.array_equal(sim.last_output, first[1], equal_nan=True)
+
+
+def test_instances_are_independent():
+    """Two simulations interleaved give the same result as each one alone."""
+    params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
+    alone = Simulation(params)
+    for end in (0.01, 0.02, 0.03):
+        alone.advance(end)
+    a, b = Simulation(params), Simulation(params.replace(slot_clearance=0.0, stator_clearance=0.0))
+    for end in (0.01, 0.02, 0.03):
+        a.advance(end)
+        b.advance(end)
+    assert np.array_equal(a.state, alone.state)
+
+
+def test_numerical_failure_raises_integration_error_with_time_and_state():
+    """A step below min_step stops the run with IntegrationError carrying the time and the state."""
+    params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3, initial_step=1e-5,
+                                  min_step=9e-6, max_step=1e-5)
+    sim = Simulation(params)
+    with pytest.raises(IntegrationError) as failure:
+        sim.advance(0.05)
+    assert 0.0 <= failure.value.time < 0.05
+    assert failure.value.state.shape == sim.state.shape
+    assert np.all(np.isfinite(failure.value.state))
+    assert "min_step" in str(failure.value)
+
+
+@pytest.mark.parametrize("bad", [dict(end_time=-1.0), dict(end_time=math.nan), dict(end_time=0.1, speed_rpm=-5.0),
+                                 dict(end_time=0.1, speed_rpm=math.inf)])
+def test_bad_advance_arguments_are_refused_before_any_work(bad):
+    sim = Simulation(CompressorParameters())
+    state = sim.state.copy()
+    with pytest.raises(ValueError) as error:
+        sim.advance(**bad)
+    assert ("speed_rpm" in str(error.value)) or ("end_time" in str(error.value))
+    assert "allowed" in str(error.value)
+    assert np.array_equal(sim.state, state) and sim.time == 0.0
+
+
+def test_ideal_gas_table_needs_an_operating_speed():
+    with pytest.raises(ValueError, match="operating speed"):
+        Simulation(CompressorParameters(), constant_speed(0.0))
+
+
+@pytest.mark.parametrize("changes", [
+    dict(displacement_law="cycloidal"),
+    dict(displacement_law="polynomial_345"),
+    dict(displacement_law="harmonic_dwell", bottom_dwell=0.1, top_dwell=0.1),
+    dict(stiffness_model="johnson_line"),
+    dict(friction_model="ambrosio", friction_velocity=1e-4, friction_velocity_full=1e-3),
+    dict(pressure_model="polytropic"),
+    dict(lobes=5), dict(lobes=7), dict(lobes=9),
+])
+def test_alternative_models_run_and_conserve_energy(changes):
+    """Every option runs two revolutions at c = 0.05 mm and closes the energy balance (SPEC §6.4)."""
+    params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3, **changes)
+    sim = Simulation(params)
+    sim.advance(2.2 * REVOLUTION)
+    summary = revolutions(sim)[-1]
+    assert abs(summary.energy_residual) < 5e-3
+    assert 0.3 < summary.mechanical_efficiency < 0.95
+
+
+def test_start_up_ramp_end_is_an_event():
+    """The cycloidal ramp ends exactly at t_r: a step lands there and omega is the target from then on."""
+    sim = Simulation(CompressorParameters(), cycloidal_ramp(1500.0, 0.05), initial_angle=0.0)
+    sim.advance(0.06)
+    time = sim.history["time"]
+    assert np.any(np.abs(time - 0.05) < 1e-15)
+    assert sim.rotor_speed == pytest.approx(1500.0 * RPM, rel=1e-14)
