@@ -145,7 +145,8 @@ def allowed_range_text(metadata: dict[str, Any]) -> str:
         return "one of " + ", ".join(metadata["choices"])
     left = "(" if metadata["exclusive_min"] else "["
     kind = "integer in " if metadata["integer"] else ""
-    return f"{kind}{left}{metadata['min']:g}, {metadata['max']:g}] {metadata['unit']}".rstrip()
+    unit = "" if metadata["unit"] == "1" else metadata["unit"]
+    return f"{kind}{left}{metadata['min']:g}, {metadata['max']:g}] {unit}".rstrip()
 
 
 def _reject(name, value, allowed):
@@ -214,3 +215,13 @@ def validate(params: CompressorParameters) -> None:
     _validate_declared_ranges(params)
     _validate_relations(params)
     check_stator_regularity(params)
+
+
+def markdown_table() -> str:
+    """The parameter table of the README, generated from the declarations."""
+    lines = ["| parameter | default | unit | allowed | description |", "|---|---|---|---|---|"]
+    for name, default, meta in declarations():
+        unit = meta["unit"] or "-"
+        shown = f"`{default}`" if isinstance(default, str) else f"{default:g}"
+        lines.append(f"| `{name}` | {shown} | {unit} | {allowed_range_text(meta)} | {meta['description']} |")
+    return "\n".join(lines)
