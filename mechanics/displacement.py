@@ -72,6 +72,20 @@ def _harmonic_with_dwells(theta, stroke, lobes, bottom_dwell, top_dwell):
 
 
 @njit(cache=True)
+def displacement_given_trig(theta, cos_theta, sin_theta, law, stroke, lobes, bottom_dwell, top_dwell):
+    """`displacement` when cos(theta) and sin(theta) are known: for the harmonic law cos(z theta) and sin(z theta)
+    follow by complex powers (de Moivre), saving a trigonometric evaluation in the closest-point loop."""
+    if law != HARMONIC:
+        return displacement(theta, law, stroke, lobes, bottom_dwell, top_dwell)
+    c = 1.0
+    s = 0.0
+    for _ in range(int(lobes)):
+        c, s = c * cos_theta - s * sin_theta, s * cos_theta + c * sin_theta
+    half = 0.5 * stroke
+    return (half * (1.0 - c), half * lobes * s, half * lobes * lobes * c, -half * lobes ** 3 * s)
+
+
+@njit(cache=True)
 def displacement(theta, law, stroke, lobes, bottom_dwell, top_dwell):
     """(s, ds/dtheta, d2s/dtheta2, d3s/dtheta3) of the chosen law at rotor angle theta."""
     if law == HARMONIC:

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .displacement import LAW_CODES, displacement
+from .displacement import LAW_CODES, displacement, displacement_given_trig
 
 TWO_PI = 2.0 * math.pi
 
@@ -147,17 +147,17 @@ def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, t
 
 @njit(cache=True)
 def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, kappa_C), for the time loop (SPEC §2.6).
+    """u and the pitch frame there: (u, C_x, C_y, n_x, n_y, kappa_C), for the time loop (SPEC §2.6).
 
-    The same Newton iteration as `closest_pitch_parameter`; the frame is built from the displacement values of the
-    last iterate, which differs from u* by less than 1e-13 rad, so no extra trigonometric evaluation is needed.
+    The Newton iteration of `closest_pitch_parameter`, stopped when the next correction is below 1e-13 rad; the
+    frame is built from the values of that last iterate, so no extra trigonometric evaluation is needed.
     """
     u = u_start
     for _ in range(20):
-        s, s1, s2, _ = displacement(u, law, stroke, lobes, bottom_dwell, top_dwell)
-        r = base_radius + s
         c = math.cos(u)
         si = math.sin(u)
+        s, s1, s2, _ = displacement_given_trig(u, c, si, law, stroke, lobes, bottom_dwell, top_dwell)
+        r = base_radius + s
         cx = r * c
         cy = r * si
         d1x = s1 * c - r * si

@@ -22,8 +22,9 @@ from .speed import ramp_end_time, rotor_motion, time_of_angle
 ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS = range(6)
 COUNTER_SIZE = 6
 # control values kept between advances
-CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS = range(3)
-CONTROL_SIZE = 3
+CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
+CONTROL_SIZE = 4
+PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
@@ -47,11 +48,20 @@ def _tolerance(i, value, m):
 
 @njit(cache=True)
 def _error_norm(y_new, error, m):
-    """max_i |error_i| / (atol_i + rtol |y_i|)."""
+    """max_i |error_i| / (atol_i + rtol |y_i|), the norm of SPEC §8.2 (ABM4)."""
     worst = 0.0
     for i in range(y_new.size):
         worst = max(worst, abs(error[i]) / _tolerance(i, y_new[i], m))
     return worst
+
+
+@njit(cache=True)
+def _error_rms(y_old, y_new, error, m):
+    """sqrt(mean_i (error_i / (atol_i + rtol max(|y_old,i|, |y_new,i|)))^2), Hairer's DOPRI5 norm."""
+    total = 0.0
+    for i in range(y_new.size):
+        total += (error[i] / _tolerance(i, max(abs(y_old[i]), abs(y_new[i])), m)) ** 2
+    return math.sqrt(total / y_new.size)
 
 
 @njit(cache=True)
@@ -134,7 +144,9 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 
 @njit(cache=True)
 def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record, counters):
-    """Adaptive Dormand-Prince 5(4) with FSAL and the elementary controller h <- h min(5, max(0.2, 0.9 err^-1/5)).
+    """Adaptive Dormand-Prince 5(4) with FSAL, Hairer's RMS error norm and PI step control (DOPRI5):
+
+    h_new = h min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)),  beta = 0.04, after a rejection no growth.
 
     Returns (status, t, rows recorded). y, memory, control and counters are updated in place.
     """
@@ -155,10 +167,13 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
     evaluate(t, y, m, law, pressure_table, memory, k1, out)
     counters[EVALUATIONS] += 1
     h = control[CONTROL_STEP]
+    previous_error = control[CONTROL_PREVIOUS_ERROR] if control[CONTROL_PREVIOUS_ERROR] > 0.0 else 1e-4
+    rejected_last = False
     failure = 0
     while t < t_end:
         if rows >= record.shape[0]:
             control[CONTROL_STEP] = h
+            control[CONTROL_PREVIOUS_ERROR] = previous_error
             return RECORD_FULL, t, rows
         h = min(h, m.max_step)
         step, event = _clip_to_events(t, h, t_end, law, memory, m)
@@ -177,11 +192,12 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
         counters[EVALUATIONS] += 6
         _combine(error, zero, step, E1, k1, E3, k3, E4, k4, E5, k5, E6, k6, E7, k7)
         finite = _all_finite(y_new) and _all_finite(error)
-        err = _error_norm(y_new, error, m) if finite else math.inf
+        err = _error_rms(y, y_new, error, m) if finite else math.inf
         if err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m):
             counters[REJECTED] += 1
+            rejected_last = True
             if err > 1.0 and finite:
-                h = step * max(0.2, 0.9 * err ** -0.2)
+                h = step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
             else:
                 h = 0.5 * step
             if h < m.min_step:
@@ -203,9 +219,15 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
             counters[VALLEY_CROSSINGS] += 1
             evaluate(t, y, m, law, pressure_table, memory, k1, out)
             counters[EVALUATIONS] += 1
-        proposal = step * min(5.0, max(0.2, 0.9 * err ** -0.2)) if err > 0.0 else 5.0 * step
-        h = max(h, proposal) if event != NO_EVENT else proposal
+        err = max(err, 1e-10)
+        factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * previous_error ** PI_BETA))
+        if rejected_last:
+            factor = min(factor, 1.0)
+        previous_error = max(err, 1e-4)
+        rejected_last = False
+        h = max(h, step * factor) if event != NO_EVENT else step * factor
     control[CONTROL_STEP] = h
+    control[CONTROL_PREVIOUS_ERROR] = previous_error
     return REACHED_END, t, rows
 
 
