@@ -120,7 +120,8 @@ def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, t
     """Parameter u* of the point of C closest to T, and the Newton iterations used (SPEC §2.6).
 
     Newton on f(u) = (T - C).C' = 0 from u_start (the previous u*, or atan2(T)), steps limited to 0.05 rad,
-    stop at |du| < 1e-13. If f' >= 0 or 20 iterations do not converge: Brent on
+    stop at |du| < 1e-13. If f' >= 0, 20 iterations do not converge, or Newton lands more than pi/(2z) from
+    atan2(T) (another root of f, reachable from a far start): Brent on
     [u0 - pi/(2z), u0 + pi/(2z)] around u0 = atan2(T) unwrapped next to u_start. Returns iterations = -1 then.
     Offset curves share normals, so u* is also the closest point of the stator S.
     """
@@ -136,7 +137,10 @@ def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, t
             du = -0.05
         u += du
         if abs(du) < 1e-13:
-            return u, iteration
+            polar = math.atan2(ty, tx)
+            if abs(u - polar - TWO_PI * round((u - polar) / TWO_PI)) <= 0.5 * math.pi / lobes:
+                return u, iteration
+            break                   # converged to another branch of f = 0: bracket around the polar angle
     polar = math.atan2(ty, tx)
     polar += TWO_PI * round((u_start - polar) / TWO_PI)
     half_width = 0.5 * math.pi / lobes
@@ -176,6 +180,8 @@ def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_d
         elif du < -0.05:
             du = -0.05
         if abs(du) < 1e-13:
+            if abs(u - u_start) > 0.5 * math.pi / lobes:
+                break                   # another root of f: let the safeguarded search decide
             speed = math.sqrt(r * r + s1 * s1)
             nr = r / speed
             nt = -s1 / speed

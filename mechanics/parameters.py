@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -102,6 +103,10 @@ class CompressorParameters:
 
     def __post_init__(self):
         validate(self)
+        for name, _, meta in declarations():          # numpy scalars in, plain Python numbers stored
+            if "choices" not in meta:
+                value = getattr(self, name)
+                object.__setattr__(self, name, int(value) if meta["integer"] else float(value))
 
     def replace(self, **changes) -> "CompressorParameters":
         """A copy with some values changed (validated)."""
@@ -161,7 +166,7 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
             if value not in meta["choices"]:
                 _reject(name, value, allowed)
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
             _reject(name, value, allowed)
         if meta["integer"] and int(value) != value:
             _reject(name, value, allowed)

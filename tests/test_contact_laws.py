@@ -1,0 +1,455 @@
+"""Contact detection and contact laws: SPEC §11 T5 (normal force), T6 (friction), T7 (mirror symmetry),
+T8 (clearance geometry), and the six-region detection against an independent SPEC §4 reference
+(tests/conftest.py)."""
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+from scipy.integrate import solve_ivp
+
+from mechanics import CompressorParameters, Simulation, constant_speed
+from mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, elastic_force,
+                               friction_coefficient_effective, hertz_stiffness, normal_force, slot_bottom_contact,
+                               slot_mouth_contact, tip_contact)
+from mechanics.machine import machine_from_parameters
+
+RPM = 2 * math.pi / 60
+E_STAR_SPEC = 113.7e9        # SPEC §5.2 / §9
+
+
+def e_star(params):
+    return params.youngs_modulus / (2 * (1 - params.poisson_ratio ** 2))
+
+
+def hertz_k(radius, params):
+    """K = (4/3) E* sqrt(R*) (SPEC §5.2 option P)."""
+    return 4 / 3 * e_star(params) * math.sqrt(radius)
+
+
+# (vane curvature, other curvature, R*) of SPEC §5.2's table: edge on plane, tip on wall, edge vs arc,
+# tip vs a concave stator (kappa_S = 40 1/m), tip vs a locally convex stator (kappa_S = -150 1/m)
+RHO, R_E = 2e-3, 1e-3
+CURVATURE_CASES = [(0.0, 1 / R_E), (1 / RHO, 0.0), (1 / RHO, 1 / R_E), (1 / RHO, -40.0), (1 / RHO, 150.0)]
+
+
+# ----------------------------------------------------------------------------------------------------------
+# T5: normal contact force
+
+
+def test_hertz_stiffness_matches_spec(check):
+    p = CompressorParameters()
+    m = machine_from_parameters(p)
+    check("T5 E* (formula) vs SPEC 113.7 GPa, rel.", abs(e_star(p) / E_STAR_SPEC - 1), 1e-3)
+    assert abs(m.effective_modulus / e_star(p) - 1) < 1e-14
+    k = hertz_stiffness(0.0, 1 / R_E, m.effective_modulus)
+    # SPEC §5.2: K = 4.80e9 N/m^1.5 for r_e = 1 mm
+    check("T5 K(r_e = 1 mm) vs SPEC 4.80e9, rel.", abs(k / 4.80e9 - 1), 2e-3)
+    # SPEC §5.2: 300 N gives delta = 15.7 um and k = 1.5 F/delta = 2.9e7 N/m
+    delta = (300 / k) ** (2 / 3)
+    check("T5 delta(300 N) vs SPEC 15.7 um [m]", abs(delta - 15.7e-6), 0.1e-6)
+    check("T5 1.5 F/delta vs SPEC 2.9e7 N/m, rel.", abs(1.5 * 300 / delta / 2.9e7 - 1), 0.02)
+    for vane, other in CURVATURE_CASES:
+        expected = hertz_k(1 / (vane + other), p)
+        check("T5 hertz_stiffness vs (4/3) E* sqrt(R*), rel.",
+              abs(hertz_stiffness(vane, other, m.effective_modulus) / expected - 1), 1e-14)
+
+
+@pytest.mark.parametrize("vane,other", CURVATURE_CASES)
+def test_static_force_is_hertz_and_energy_is_its_integral(check, vane, other):
+    """F(delta, rate = 0) = K delta^1.5 and the stored energy equals int_0^delta F d delta (quadrature)."""
+    p = CompressorParameters()
+    m = machine_from_parameters(p)
+    k = hertz_k(1 / (vane + other), p)
+    for delta in (1e-9, 1e-7, 3e-6, 2e-5):
+        elastic, energy = elastic_force(delta, vane, other, m)
+        check("T5 F(delta, rate 0) vs K delta^1.5, rel.", abs(elastic / (k * delta ** 1.5) - 1), 1e-13)
+        for onset in (0.01, 0.3):
+            assert normal_force(elastic, 0.0, onset, p.restitution) == elastic
+        work, _ = integrate.quad(lambda x: elastic_force(x, vane, other, m)[0], 0.0, delta, epsabs=0, epsrel=1e-12)
+        check("T5 option P energy vs quad of F, rel.", abs(energy / work - 1), 1e-9)
+    assert elastic_force(0.0, vane, other, m)[0] == 0.0
+
+
+def test_normal_force_damping_factor_and_no_adhesion(check):
+    """F_n = F_el [1 + 3 (1 - c_e^2)/4 rate/v-], clamped at 0 (no adhesion): F >= 0 always."""
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        elastic = rng.uniform(0, 500)
+        rate = rng.uniform(-20, 20)
+        onset = rng.uniform(0.01, 2)
+        restitution = rng.uniform(0.05, 1.0)
+        force = normal_force(elastic, rate, onset, restitution)
+        expected = elastic * (1 + 0.75 * (1 - restitution ** 2) * rate / onset)
+        assert force >= 0
+        check("T5 LN force vs formula, rel. to F_el", abs(force - max(expected, 0.0)) / elastic, 1e-13)
+    assert normal_force(0.0, -5.0, 0.1, 0.9) == 0.0
+
+
+def test_no_force_when_contacts_are_open(reference, kernel):
+    """F(delta <= 0) = 0: a vane retracted from the stator and centred in a slot with clearance has all six
+    penetrations <= 0, zero normal and friction forces, contact mode 0 and no contact power."""
+    p = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
+    sim = Simulation(p, constant_speed(1500.0), initial_angle=0.0)
+    xi_t = sim.machine.tip_centre
+    ref = reference.HarmonicPitch(p.base_radius, p.stroke, p.lobes)
+    for theta in np.linspace(0.0, 2 * math.pi, 13):
+        time = theta / (1500.0 * RPM)
+        er = np.array([math.cos(theta), math.sin(theta)])
+        for gap in (1e-12, 5e-6):      # tip 1 pm and 5 um inside the stator
+            tip = ref.point(theta) + (p.stator_clearance - gap) * ref.normal(theta)
+            cg = tip - xi_t * er
+            state = (*cg, theta, 1.0, -2.0, 150.0)
+            status, dydt, out = kernel.evaluate_at(sim, time, state, onset=(0.1,) * 5)
+            assert abs(out["rotor_angle"] - theta) < 1e-12
+            assert status == 0
+            for k in range(1, 7):
+                # delta <= 0, or NaN where the region has no valid candidate (the tip's other quarter)
+                assert not out[f"penetration_{k}"] > 0
+                assert out[f"normal_force_{k}"] == 0 and out[f"friction_force_{k}"] == 0
+            assert out["contact_mode"] == 0
+            assert dydt[8] == 0 and dydt[9] == 0 and out["contact_energy"] == 0
+            assert out["stator_force_x"] == 0 and out["rotor_force_x"] == 0
+
+
+def impact_restitution(v_minus, machine, vane_curvature, other_curvature):
+    """1-DOF impact of the vane mass on a fixed body: m delta'' = -F_n(delta, delta'), from delta = 0 with
+    delta' = v-, until delta returns to 0 (scipy DOP853, tight tolerances). Returns v+/v-."""
+    mass = machine.vane_mass
+
+    def rhs(_, y):
+        delta, rate = y
+        if delta <= 0.0:
+            return [rate, 0.0]
+        elastic = elastic_force(delta, vane_curvature, other_curvature, machine)[0]
+        return [rate, -normal_force(elastic, rate, v_minus, machine.restitution) / mass]
+
+    def separation(_, y):
+        return y[0]
+
+    separation.terminal = True
+    separation.direction = -1
+    solution = solve_ivp(rhs, (0.0, 2e-3), [0.0, v_minus], method="DOP853", rtol=1e-12, atol=[1e-16, 1e-12],
+                         events=separation)
+    assert solution.status == 1, "the impact did not end"
+    return -solution.y_events[0][0][1] / v_minus
+
+
+@pytest.mark.parametrize("v_minus", [0.1, 0.2, 0.5, 1.0])
+def test_impact_restitution_option_p(check, v_minus):
+    """T5: edge on plane (R* = r_e), option P: v+/v- = c_e +- 3 %."""
+    p = CompressorParameters()
+    m = machine_from_parameters(p)
+    ratio = impact_restitution(v_minus, m, 0.0, 1 / p.edge_radius)
+    check("T5 impact |v+/v- / c_e - 1|", abs(ratio / p.restitution - 1), 0.03)
+
+
+# option L (Johnson line contact)
+
+
+def johnson_penetration(force, vane_curvature, other_curvature, params):
+    """delta(F) of SPEC §5.2 option L: b = sqrt(4 F R*/(pi L E*)),
+    delta = F/(pi L) sum over curved bodies (1 - nu^2)/E (2 ln(4 R_k/b) - 1), flat bodies rigid."""
+    radius = 1 / (vane_curvature + other_curvature)
+    half_width = math.sqrt(4 * force * radius / (math.pi * params.axial_length * e_star(params)))
+    compliance = (1 - params.poisson_ratio ** 2) / params.youngs_modulus
+    total = 0.0
+    for curvature in (vane_curvature, other_curvature):
+        if curvature != 0.0:
+            total += compliance * (2 * math.log(4 / abs(curvature) / half_width) - 1)
+    return force / (math.pi * params.axial_length) * total
+
+
+@pytest.mark.parametrize("vane,other", CURVATURE_CASES)
+def test_line_contact_inverts_johnson_formula(check, vane, other):
+    p = CompressorParameters(stiffness_model="johnson_line")
+    m = machine_from_parameters(p)
+    worst = 0.0
+    for force in (0.1, 1.0, 10.0, 100.0, 300.0, 1000.0, 5000.0):
+        delta = johnson_penetration(force, vane, other, p)
+        got = elastic_force(delta, vane, other, m)[0]
+        worst = max(worst, abs(got / force - 1))
+    check("T5 option L F(delta(F)) round trip, rel.", worst, 1e-9)
+    # monotonic in delta, and much stiffer than option P (SPEC §5.2: ~0.1-0.2 um at 300 N, not ~16 um)
+    deltas = np.logspace(-11, -5.5, 300)
+    forces = np.array([elastic_force(d, vane, other, m)[0] for d in deltas])
+    assert np.all(np.diff(forces) > 0)
+    assert 0.02e-6 < johnson_penetration(300.0, vane, other, p) < 0.5e-6
+
+
+@pytest.mark.parametrize("vane,other", CURVATURE_CASES)
+def test_line_contact_energy_is_integral_of_force(check, vane, other):
+    p = CompressorParameters(stiffness_model="johnson_line")
+    m = machine_from_parameters(p)
+    for force in (1.0, 300.0, 2000.0):
+        delta = johnson_penetration(force, vane, other, p)
+        energy = elastic_force(delta, vane, other, m)[1]
+        work, _ = integrate.quad(lambda x: elastic_force(x, vane, other, m)[0], 0.0, delta, epsabs=0,
+                                 epsrel=1e-11, limit=200)
+        check("T5 option L energy vs quad of F, rel.", abs(energy / work - 1), 1e-6)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# T6: friction
+
+
+def threlfall(slip, mu, v0):
+    return mu * (1 - math.exp(-3 * slip / v0))
+
+
+def test_threlfall_coefficient(check):
+    p = CompressorParameters()
+    m = machine_from_parameters(p)
+    mu, v0 = p.friction_coefficient, p.friction_velocity
+    assert friction_coefficient_effective(0.0, m) == 0.0
+    worst = 0.0
+    for slip in np.concatenate([np.logspace(-9, 1, 400), [v0, 10 * v0, 5.0]]):
+        got = friction_coefficient_effective(slip, m)
+        worst = max(worst, abs(got - threlfall(slip, mu, v0)) / mu)
+        assert 0 <= got <= mu
+        if slip >= 10 * v0:
+            check("T6 Threlfall mu_eff/mu - 1 for |v_t| >= 10 v0", abs(got / mu - 1), 1e-6)
+    check("T6 Threlfall mu_eff vs formula / mu", worst, 1e-14)
+    # continuous and Lipschitz with slope 3 mu/v0 at most
+    slips = np.linspace(0, 20 * v0, 20001)
+    values = np.array([friction_coefficient_effective(s, m) for s in slips])
+    assert np.max(np.abs(np.diff(values))) <= 3 * mu / v0 * (slips[1] - slips[0]) * (1 + 1e-9)
+
+
+def test_ambrosio_coefficient(check):
+    p = CompressorParameters(friction_model="ambrosio", friction_velocity=1e-4, friction_velocity_full=1e-3)
+    m = machine_from_parameters(p)
+    mu = p.friction_coefficient
+    cases = {0.0: 0.0, 5e-5: 0.0, 0.99e-4: 0.0, 1e-4: 0.0, 2e-4: mu / 9, 5.5e-4: mu / 2, 1e-3: mu,
+             1.0001e-3: mu, 0.5: mu}
+    for slip, expected in cases.items():
+        check("T6 Ambrosio mu_eff vs piecewise values", abs(friction_coefficient_effective(slip, m) - expected), 1e-14)
+    slips = np.linspace(0, 2e-3, 20001)
+    values = np.array([friction_coefficient_effective(s, m) for s in slips])
+    assert np.max(np.abs(np.diff(values))) <= mu / 9e-4 * (slips[1] - slips[0]) * (1 + 1e-9)
+    assert np.all(np.diff(values) >= 0)
+
+
+@pytest.mark.parametrize("theta", [0.7, 1.6])         # rising flank (c6) and falling flank (c5) of lobe 1
+def test_friction_force_in_the_kernel_is_odd_and_continuous(check, reference, kernel, theta):
+    """Only the tip contact is closed (5 um), rate 0, pure sliding with slip speed v_t along the stator tangent:
+    the friction force on the vane is -mu_eff(|v_t|) F_n v_t/|v_t|, odd in v_t, 0 at v_t = 0, continuous
+    (slope <= 3 mu F_n/v_0), equal to mu F_n within 1e-6 for |v_t| >= 10 v_0."""
+    p = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
+    sim = Simulation(p, constant_speed(1500.0), initial_angle=theta)
+    ref = reference.HarmonicPitch(p.base_radius, p.stroke, p.lobes)
+    n = ref.normal(theta)
+    tangent = np.array([-n[1], n[0]])
+    tip = ref.point(theta) + (p.stator_clearance + 5e-6) * n
+    cg = tip - sim.machine.tip_centre * np.array([math.cos(theta), math.sin(theta)])
+    region = 5 if np.dot(n, [-math.sin(theta), math.cos(theta)]) > 0 else 6
+    mu, v0 = p.friction_coefficient, p.friction_velocity
+
+    def tip_force(slip):
+        velocity = slip * tangent
+        _, _, out = kernel.evaluate_at(sim, 0.0, (*cg, theta, *velocity, 0.0))
+        assert out["contact_mode"] == 1 << (region - 1)
+        force = -np.array([out["stator_force_x"], out["stator_force_y"]])     # force on the vane
+        return np.dot(force, -n), np.dot(force, tangent), out[f"normal_force_{region}"], \
+            out[f"friction_force_{region}"]
+
+    normal0, tangential0, reported_normal, reported_friction = tip_force(0.0)
+    expected_normal = hertz_k(1 / (1 / p.tip_radius - ref.curvature(theta) / (1 + p.envelope_offset
+                                                                                * ref.curvature(theta))), p) \
+        * 5e-6 ** 1.5
+    check("T6 kernel tip F_n vs K delta^1.5 (independent K), rel.", abs(normal0 / expected_normal - 1), 1e-9)
+    assert reported_normal == pytest.approx(normal0, rel=1e-12)
+    assert abs(tangential0) <= 1e-12 * normal0 and reported_friction == 0.0
+    slips = np.concatenate([np.linspace(-20 * v0, 20 * v0, 801), [-2.0, -50 * v0, 50 * v0, 2.0]])
+    results = {s: tip_force(s) for s in slips}
+    for slip, (normal, tangential, _, reported) in results.items():
+        assert abs(normal - normal0) <= 1e-12 * normal0                       # rate 0: F_n independent of v_t
+        expected = -math.copysign(threlfall(abs(slip), mu, v0), slip) * normal0 if slip != 0 else 0.0
+        check("T6 kernel F_t vs -mu_eff F_n v_t/|v_t|, rel. to F_n", abs(tangential - expected) / normal0, 1e-12)
+        assert abs(reported - abs(tangential)) <= 1e-12 * normal0
+        back = results.get(-slip)
+        if back is not None:                                                  # odd in v_t
+            check("T6 kernel F_t(v) + F_t(-v), rel. to F_n", abs(tangential + back[1]) / normal0, 1e-12)
+        if abs(slip) >= 10 * v0:
+            check("T6 kernel |F_t|/(mu F_n) - 1 for |v_t| >= 10 v0", abs(abs(tangential) / (mu * normal0) - 1), 1e-6)
+    ordered = sorted(s for s in slips if abs(s) <= 20 * v0)
+    values = np.array([results[s][1] for s in ordered])
+    assert np.max(np.abs(np.diff(values))) <= 3 * mu * normal0 / v0 * np.max(np.diff(ordered)) * (1 + 1e-9)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Detection against the independent SPEC §4 reference
+
+KIND_CODES = {"A": EDGE_ON_FACE, "B": EDGE_ON_ARC, "C": TIP_ON_WALL}
+
+
+def machine_and_geometry(contact_reference, **overrides):
+    p = CompressorParameters(**overrides)
+    m = machine_from_parameters(p)
+    return p, m, contact_reference.VaneGeometry(p, m.tip_centre)
+
+
+def pose(theta, radial, lateral, tilt, params, xi_t):
+    """Vane pose with the tip centre at radius R0 + radial along e_r(theta), lateral offset along e_theta and
+    tilt phi - theta. Returns (G, phi)."""
+    er = np.array([math.cos(theta), math.sin(theta)])
+    et = np.array([-er[1], er[0]])
+    phi = theta + tilt
+    tip = (params.base_radius + radial) * er + lateral * et
+    return tip - xi_t * np.array([math.cos(phi), math.sin(phi)]), phi
+
+
+def code_regions(g, phi, theta, m):
+    exi = (math.cos(phi), math.sin(phi))
+    er = (math.cos(theta), math.sin(theta))
+    tip = (g[0] + m.tip_centre * exi[0], g[1] + m.tip_centre * exi[1])
+    return ([slot_mouth_contact(1.0, *g, *exi, *er, m), slot_mouth_contact(-1.0, *g, *exi, *er, m),
+             slot_bottom_contact(1.0, *g, *exi, *er, m), slot_bottom_contact(-1.0, *g, *exi, *er, m)],
+            tip_contact(*tip, *exi, 0.0, m))
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.05e-3, 0.2e-3])
+def test_detection_matches_reference(check, contact_reference, clearance):
+    """Random poses across the stroke (tip in the slot, at the mouth, out), lateral offsets and tilts: every
+    region's delta, normal, point, R* and c1/c2 candidate type match SPEC §4.2-§4.4 evaluated independently."""
+    p, m, v = machine_and_geometry(contact_reference, slot_clearance=clearance, stator_clearance=clearance)
+    rng = np.random.default_rng(int(clearance * 1e6) + 1)
+    kinds = set()
+    worst = 0.0
+    for k in range(600):
+        theta = rng.uniform(0, 2 * math.pi)
+        tilt = rng.uniform(-4e-3, 4e-3)
+        if k < 400:
+            radial = rng.uniform(-0.5e-3, p.stroke + 0.2e-3)
+        else:  # tip centre within rho |tilt| below / (w/2) |tilt| above the mouth level: candidate B's band
+            radial = v.mouth - p.base_radius + rng.uniform(-v.rho, 0.5 * v.w) * abs(tilt)
+        g, phi = pose(theta, radial, rng.uniform(-0.1e-3, 0.1e-3), tilt, p, m.tip_centre)
+        slots, tip = code_regions(g, phi, theta, m)
+        refs, ref_tip = contact_reference.contacts(g, phi, theta, v)
+        for k, got in enumerate(slots):
+            expected = refs[k]
+            if expected is None:
+                assert got[0] == -math.inf and got[7] == NO_CANDIDATE
+                continue
+            if k < 2:
+                assert got[7] == KIND_CODES[expected["kind"]]
+                kinds.add(expected["kind"])
+            worst = max(worst, abs(got[0] - expected["delta"]) / 1e-3)
+            assert np.allclose(got[1:3], expected["n"], rtol=0, atol=1e-12)
+            assert np.allclose(got[3:5], expected["P"], rtol=0, atol=1e-15)
+            assert abs(1 / (got[5] + got[6]) / expected["radius"] - 1) < 1e-12
+        worst = max(worst, abs(tip[0] - ref_tip["delta"]) / 1e-3)
+        assert np.allclose(tip[1:3], ref_tip["n"], rtol=0, atol=1e-12)
+        assert np.allclose(tip[3:5], ref_tip["P"], rtol=0, atol=1e-15)
+        assert abs(1 / (tip[5] + tip[6]) / ref_tip["radius"] - 1) < 1e-10
+    check("detection delta vs SPEC §4 reference [m] / 1 mm", worst, 1e-12)
+    assert kinds == {"A", "B", "C"}
+
+
+# ----------------------------------------------------------------------------------------------------------
+# T7: mirror symmetry about the slot centreline
+
+
+def reflect(point, theta):
+    """Reflection about the line through O along e_r(theta)."""
+    er = np.array([math.cos(theta), math.sin(theta)])
+    return 2 * np.dot(point, er) * er - np.asarray(point)
+
+
+MIRROR_POSES = [  # (radial position of T above R0, lateral offset of T, tilt)
+    (-0.8e-3, 10e-6, 1.5e-3), (0.3e-3, -20e-6, -2e-3), (1.9e-3, 5e-6, 3e-3), (2.05e-3, 30e-6, -1e-3),
+    (3.0e-3, -40e-6, 2.5e-3), (4.9e-3, 15e-6, -3e-3), (5.02e-3, 0.0, 0.0), (2.5e-3, 0.0, 1e-3),
+]
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.05e-3, 0.2e-3])
+@pytest.mark.parametrize("radial,lateral,tilt", MIRROR_POSES)
+def test_mirror_symmetry_of_slot_regions(check, radial, lateral, tilt, clearance):
+    """T7: reflecting the vane about the slot centreline (eta -> -eta, tilt -> -tilt) swaps c1 <-> c2 and
+    c3 <-> c4 with identical delta (1e-12 relative to 1 mm), mirrored normals and points, same candidate."""
+    p = CompressorParameters(slot_clearance=clearance, stator_clearance=clearance)
+    m = machine_from_parameters(p)
+    for theta in (0.0, 0.4, 2.3, 4.0):
+        g, phi = pose(theta, radial, lateral, tilt, p, m.tip_centre)
+        g_mirror, phi_mirror = reflect(g, theta), 2 * theta - phi
+        slots, _ = code_regions(g, phi, theta, m)
+        mirrored, _ = code_regions(g_mirror, phi_mirror, theta, m)
+        for k, partner in ((0, 1), (1, 0), (2, 3), (3, 2)):
+            a, b = slots[k], mirrored[partner]
+            if a[0] == -math.inf:
+                assert b[0] == -math.inf
+                continue
+            check("T7 slot |delta - delta_mirror| [m] / 1 mm", abs(a[0] - b[0]) / 1e-3, 1e-12)
+            assert np.allclose(reflect(a[1:3], theta), b[1:3], rtol=0, atol=1e-12)
+            assert np.allclose(reflect(a[3:5], theta), b[3:5], rtol=0, atol=1e-15)
+            assert a[5:] == pytest.approx(b[5:], rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("lobes", [3, 5])
+@pytest.mark.parametrize("clearance", [0.0, 0.1e-3])
+def test_mirror_symmetry_of_tip_regions(check, reference, lobes, clearance):
+    """T7 for c5 <-> c6: with the slot centreline on a symmetry axis of the stator (a valley or a lobe top), the
+    mirrored vane has the same delta_S (1e-12 relative to 1 mm) and the opposite contact angle psi_c."""
+    p = CompressorParameters(lobes=lobes, slot_clearance=clearance, stator_clearance=clearance)
+    m = machine_from_parameters(p)
+    ref = reference.HarmonicPitch(p.base_radius, p.stroke, lobes)
+    for j in range(2 * lobes):
+        theta = j * math.pi / lobes                    # valleys (j even) and lobe tops (j odd)
+        s = ref.radius(theta)[0] - p.base_radius
+        for lateral, tilt, radial in ((20e-6, 2e-3, 10e-6), (-35e-6, -1e-3, -5e-6), (0.0, 3e-3, 0.0),
+                                      (50e-6, 0.0, 30e-6)):
+            g, phi = pose(theta, s + clearance + radial, lateral, tilt, p, m.tip_centre)
+            _, tip = code_regions(g, phi, theta, m)
+            _, tip_mirror = code_regions(reflect(g, theta), 2 * theta - phi, theta, m)
+            check("T7 tip |delta - delta_mirror| [m] / 1 mm", abs(tip[0] - tip_mirror[0]) / 1e-3, 1e-12)
+            psi = math.atan2(tip[8], tip[9]) if len(tip) > 10 else tip[8]
+            psi_mirror = math.atan2(tip_mirror[8], tip_mirror[9]) if len(tip_mirror) > 10 else tip_mirror[8]
+            check("T7 tip |psi_c + psi_c,mirror| [rad]", abs(psi + psi_mirror), 1e-12)
+            assert np.allclose(reflect(tip[1:3], theta), tip_mirror[1:3], rtol=0, atol=1e-12)
+            assert np.allclose(reflect(tip[3:5], theta), tip_mirror[3:5], rtol=0, atol=1e-15)
+            assert abs(tip[6] - tip_mirror[6]) <= 1e-9 * abs(tip[6]) + 1e-9
+            if abs(psi) > 1e-9:   # region index swaps: c5 (psi > 0) <-> c6 (psi < 0)
+                assert (psi > 0) != (psi_mirror > 0)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# T8: clearance geometry
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3])
+def test_centred_vane_has_half_clearance_in_every_slot_region(check, clearance):
+    """T8: vane centred and untilted: delta_1..4 = -c_R/2 where candidate A (edge on face) or C (tip on wall)
+    applies; the bottom corners always."""
+    p = CompressorParameters(slot_clearance=clearance, stator_clearance=clearance)
+    m = machine_from_parameters(p)
+    seen = set()
+    for theta in (0.0, 1.0, 3.5):
+        for radial in np.linspace(-1.5e-3, p.stroke + clearance, 41):
+            g, phi = pose(theta, radial, 0.0, 0.0, p, m.tip_centre)
+            slots, _ = code_regions(g, phi, theta, m)
+            for k in range(4):
+                delta = slots[k][0]
+                if k >= 2 or slots[k][7] in (EDGE_ON_FACE, TIP_ON_WALL):
+                    check("T8 |delta_1..4 + c_R/2| [m]", abs(delta + clearance / 2), 1e-15)
+                    seen.add(int(slots[k][7]) if k < 2 else "corner")
+    assert {EDGE_ON_FACE, TIP_ON_WALL, "corner"} <= seen
+
+
+@pytest.mark.parametrize("lobes", [3, 9])
+@pytest.mark.parametrize("clearance", [0.0, 0.05e-3, 0.2e-3])
+def test_tip_on_nominal_path_has_stator_gap(check, reference, lobes, clearance):
+    """T8: tip centre on the nominal pitch curve C(theta): delta_S = -c_S; more generally a tip centre at signed
+    distance g from C along its normal has delta_S = g - c_S (any tilt)."""
+    p = CompressorParameters(lobes=lobes, slot_clearance=clearance, stator_clearance=clearance)
+    m = machine_from_parameters(p)
+    ref = reference.HarmonicPitch(p.base_radius, p.stroke, lobes)
+    rng = np.random.default_rng(lobes)
+    worst = 0.0
+    for theta in rng.uniform(0, 2 * math.pi, 60):
+        for offset, tilt in ((0.0, 0.0), (0.0, rng.uniform(-5e-3, 5e-3)), (rng.uniform(-0.3e-3, 0.3e-3), 2e-3)):
+            tip = ref.point(theta) + offset * ref.normal(theta)
+            phi = theta + tilt
+            exi = (math.cos(phi), math.sin(phi))
+            result = tip_contact(*tip, *exi, 0.0, m)
+            worst = max(worst, abs(result[0] - (offset - clearance)))
+    check("T8 |delta_S - (g - c_S)| [m]", worst, 1e-15)
