@@ -582,8 +582,6 @@ def test_vane_mass_properties_against_numerical_integration(check, thickness, le
 def test_far_start_that_converges_to_another_root_falls_back_to_brent():
     """From a start far from the tip centre Newton can converge to another root of f (the far side of the
     stator); the search must then bracket around atan2(T) and return the true closest point."""
-    from mechanics import CompressorParameters
-    from mechanics.geometry import closest_pitch_parameter, law_arguments, pitch_curve
     args = law_arguments(CompressorParameters(lobes=5))
     tip = (0.029665912101837076, -0.013543062329854234)
     u, iterations = closest_pitch_parameter(*tip, 2.713330493977539, *args)
