@@ -202,7 +202,7 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True)
     xi_mouth_trailing, junction_trailing = _mouth_level_and_junction_radius(-1.0, gx, gy, tip_x, tip_y, exi_x,
                                                                            exi_y, er_x, er_y, m)
     gas_fx, gas_fy, gas_moment, gas_power_vane = vane_gas_load(
-        gx, gy, vx, vy, phi_dot, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing, sin_contact_angle,
+        vx, vy, phi_dot, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing, sin_contact_angle,
         cos_contact_angle,
         leading_pressure, trailing_pressure, back_pressure, m)
     gas_moment_rotor = rotor_gas_moment(junction_leading, junction_trailing, bottom_leading[7],

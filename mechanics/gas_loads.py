@@ -10,26 +10,26 @@ from numba import njit
 
 
 @njit(cache=True)
-def _point_velocity(px, py, gx, gy, vx, vy, angular_velocity):
-    """v3(P) = v_G + phi_dot x (P - G)."""
-    return vx - angular_velocity * (py - gy), vy + angular_velocity * (px - gx)
+def _load(force_x, force_y, arm_x, arm_y, vx, vy, angular_velocity):
+    """(F_x, F_y, moment about G, power F.v3(P)) of one force F applied at P = G + arm on the vane."""
+    point_vx = vx - angular_velocity * arm_y
+    point_vy = vy + angular_velocity * arm_x
+    return (force_x, force_y, arm_x * force_y - arm_y * force_x, force_x * point_vx + force_y * point_vy)
 
 
 @njit(cache=True)
-def vane_gas_load(gx, gy, vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing,
+def vane_gas_load(vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing,
                   sin_contact_angle, cos_contact_angle, leading_pressure, trailing_pressure, back_pressure, m):
     """Resultant (F_x, F_y, moment about G) and power sum F_i . v3(point_i) of the gas on the vane (SPEC §6.2).
 
     flat face side s:  F = -s p_s L l_s e_eta at ((xi_E + xi_T)/2, s t/2),  l_s = xi_T - xi_E,s  (if > 0)
     tip arc [psi1, psi2] at p:  F = -p L rho [(sin psi2 - sin psi1) e_xi + (cos psi1 - cos psi2) e_eta], through T
+    (leading arc [psi_c, pi/2] at p_L, trailing arc [-pi/2, psi_c] at p_T)
     bottom face:  F = +p_b t L e_xi at (xi_B, 0)
     """
     eeta_x, eeta_y = -exi_y, exi_x
-    fx = 0.0
-    fy = 0.0
-    moment = 0.0
-    power = 0.0
     length = m.axial_length
+    total = (0.0, 0.0, 0.0, 0.0)
     for side in (1.0, -1.0):
         mouth_level = xi_mouth_leading if side > 0.0 else xi_mouth_trailing
         pressure = leading_pressure if side > 0.0 else trailing_pressure
@@ -38,43 +38,20 @@ def vane_gas_load(gx, gy, vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leadi
             force = -side * pressure * length * exposed
             xi = 0.5 * (mouth_level + m.tip_centre)
             eta = side * m.half_thickness
-            rx = xi * exi_x + eta * eeta_x
-            ry = xi * exi_y + eta * eeta_y
-            f_x = force * eeta_x
-            f_y = force * eeta_y
-            fx += f_x
-            fy += f_y
-            moment += rx * f_y - ry * f_x
-            px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
-            power += f_x * px + f_y * py
-    # tip arcs, through T: leading [psi_c, pi/2] at p_L, trailing [-pi/2, psi_c] at p_T
-    sin_c = sin_contact_angle
-    cos_c = cos_contact_angle
+            face = _load(force * eeta_x, force * eeta_y, xi * exi_x + eta * eeta_x, xi * exi_y + eta * eeta_y,
+                         vx, vy, angular_velocity)
+            total = (total[0] + face[0], total[1] + face[1], total[2] + face[2], total[3] + face[3])
     scale_l = -leading_pressure * length * m.tip_radius
     scale_t = -trailing_pressure * length * m.tip_radius
-    along = scale_l * (1.0 - sin_c) + scale_t * (sin_c + 1.0)
-    across = scale_l * cos_c + scale_t * (-cos_c)
-    f_x = along * exi_x + across * eeta_x
-    f_y = along * exi_y + across * eeta_y
-    rx = m.tip_centre * exi_x
-    ry = m.tip_centre * exi_y
-    fx += f_x
-    fy += f_y
-    moment += rx * f_y - ry * f_x
-    px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
-    power += f_x * px + f_y * py
-    # bottom face
+    along = scale_l * (1.0 - sin_contact_angle) + scale_t * (sin_contact_angle + 1.0)
+    across = (scale_l - scale_t) * cos_contact_angle
+    arcs = _load(along * exi_x + across * eeta_x, along * exi_y + across * eeta_y, m.tip_centre * exi_x,
+                 m.tip_centre * exi_y, vx, vy, angular_velocity)
     force = back_pressure * 2.0 * m.half_thickness * length
-    f_x = force * exi_x
-    f_y = force * exi_y
-    rx = m.bottom_face * exi_x
-    ry = m.bottom_face * exi_y
-    fx += f_x
-    fy += f_y
-    moment += rx * f_y - ry * f_x
-    px, py = _point_velocity(gx + rx, gy + ry, gx, gy, vx, vy, angular_velocity)
-    power += f_x * px + f_y * py
-    return fx, fy, moment, power
+    bottom = _load(force * exi_x, force * exi_y, m.bottom_face * exi_x, m.bottom_face * exi_y, vx, vy,
+                   angular_velocity)
+    return (total[0] + arcs[0] + bottom[0], total[1] + arcs[1] + bottom[1], total[2] + arcs[2] + bottom[2],
+            total[3] + arcs[3] + bottom[3])
 
 
 @njit(cache=True)

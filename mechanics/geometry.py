@@ -116,60 +116,26 @@ def _brent_root(a, b, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_
 
 
 @njit(cache=True)
-def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """Parameter u* of the point of C closest to T, and the Newton iterations used (SPEC §2.6).
+def _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
+    """Newton on f(u) = (T - C).C' = 0 from u_start, steps limited to 0.05 rad, stop at |du| < 1e-13 (SPEC §2.6).
 
-    Newton on f(u) = (T - C).C' = 0 from u_start (the previous u*, or atan2(T)), steps limited to 0.05 rad,
-    stop at |du| < 1e-13. If f' >= 0, 20 iterations do not converge, or Newton lands more than pi/(2z) from
-    atan2(T) (another root of f, reachable from a far start): Brent on
-    [u0 - pi/(2z), u0 + pi/(2z)] around u0 = atan2(T) unwrapped next to u_start. Returns iterations = -1 then.
-    Offset curves share normals, so u* is also the closest point of the stator S.
+    Returns (converged, u, iterations, r, s', s'', cos u, sin u) with the values of the last iterate; not converged
+    if f' >= 0, after 20 iterations, or on a root more than pi/(2z) from u_start (another root of f, reachable
+    from a far start).
     """
     u = u_start
+    r = s1 = s2 = c = si = 0.0
     for iteration in range(1, 21):
-        f, df = _closest_point_residual(u, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
-        if df >= 0.0:
-            break
-        du = -f / df
-        if du > 0.05:
-            du = 0.05
-        elif du < -0.05:
-            du = -0.05
-        u += du
-        if abs(du) < 1e-13:
-            polar = math.atan2(ty, tx)
-            if abs(u - polar - TWO_PI * round((u - polar) / TWO_PI)) <= 0.5 * math.pi / lobes:
-                return u, iteration
-            break                   # converged to another branch of f = 0: bracket around the polar angle
-    polar = math.atan2(ty, tx)
-    polar += TWO_PI * round((u_start - polar) / TWO_PI)
-    half_width = 0.5 * math.pi / lobes
-    u = _brent_root(polar - half_width, polar + half_width, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell,
-                    base_radius)
-    return u, -1
-
-
-@njit(cache=True)
-def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """u and the pitch frame there: (u, C_x, C_y, n_x, n_y, kappa_C), for the time loop (SPEC §2.6).
-
-    The Newton iteration of `closest_pitch_parameter`, stopped when the next correction is below 1e-13 rad; the
-    frame is built from the values of that last iterate, so no extra trigonometric evaluation is needed.
-    """
-    u = u_start
-    for _ in range(20):
         c = math.cos(u)
         si = math.sin(u)
         s, s1, s2, _ = displacement_given_trig(u, c, si, law, stroke, lobes, bottom_dwell, top_dwell)
         r = base_radius + s
-        cx = r * c
-        cy = r * si
         d1x = s1 * c - r * si
         d1y = s1 * si + r * c
         ar = s2 - r
         at = 2.0 * s1
-        gx = tx - cx
-        gy = ty - cy
+        gx = tx - r * c
+        gy = ty - r * si
         f = gx * d1x + gy * d1y
         df = -(d1x * d1x + d1y * d1y) + gx * (ar * c - at * si) + gy * (ar * si + at * c)
         if df >= 0.0:
@@ -180,16 +146,47 @@ def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_d
         elif du < -0.05:
             du = -0.05
         if abs(du) < 1e-13:
-            if abs(u - u_start) > 0.5 * math.pi / lobes:
-                break                   # another root of f: let the safeguarded search decide
-            speed = math.sqrt(r * r + s1 * s1)
-            nr = r / speed
-            nt = -s1 / speed
-            return (u, cx, cy, nr * c - nt * si, nr * si + nt * c, (r * r + 2.0 * s1 * s1 - r * s2) / speed ** 3)
+            return abs(u - u_start) <= 0.5 * math.pi / lobes, u, iteration, r, s1, s2, c, si
         u += du
-    u, _ = closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
-    cx, cy, nx, ny, _, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
-    return u, cx, cy, nx, ny, curvature
+    return False, u, 20, r, s1, s2, c, si
+
+
+@njit(cache=True)
+def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
+    """Parameter u* of the point of C closest to T, and the Newton iterations used (SPEC §2.6).
+
+    Newton from u_start (the previous u*, or atan2(T)); if it does not converge (see `_newton_closest`): Brent on
+    [u0 - pi/(2z), u0 + pi/(2z)] around u0 = atan2(T) unwrapped next to u_start, and iterations = -1.
+    Offset curves share normals, so u* is also the closest point of the stator S.
+    """
+    polar = math.atan2(ty, tx)
+    polar += TWO_PI * round((u_start - polar) / TWO_PI)
+    converged, u, iterations, _, _, _, _, _ = _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell,
+                                                              top_dwell, base_radius)
+    if converged and abs(u - polar) <= 0.5 * math.pi / lobes:
+        return u, iterations
+    half_width = 0.5 * math.pi / lobes
+    u = _brent_root(polar - half_width, polar + half_width, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell,
+                    base_radius)
+    return u, -1
+
+
+@njit(cache=True)
+def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
+    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, kappa_C), for the time loop (SPEC §2.6).
+
+    The frame is built from the values of the last Newton iterate, so no extra trigonometric evaluation is needed.
+    """
+    converged, u, _, r, s1, s2, c, si = _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell,
+                                                        top_dwell, base_radius)
+    if not converged:
+        u, _ = closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
+        cx, cy, nx, ny, _, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
+        return u, cx, cy, nx, ny, curvature
+    speed = math.sqrt(r * r + s1 * s1)
+    nr = r / speed
+    nt = -s1 / speed
+    return (u, r * c, r * si, nr * c - nt * si, nr * si + nt * c, (r * r + 2.0 * s1 * s1 - r * s2) / speed ** 3)
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -83,6 +83,15 @@ def _all_finite(values):
 
 
 @njit(cache=True)
+def _stop_status(failure, finite):
+    """Why a run stopped when the step fell below min_step: the state check that failed, a non-finite state,
+    or the error control itself."""
+    if failure != 0:
+        return failure
+    return STEP_TOO_SMALL if finite else NOT_FINITE
+
+
+@njit(cache=True)
 def _clip_to_events(t, step, t_end, law, memory, m):
     """Shorten the step to land on the next event inside it; return (step, event kind)."""
     event = NO_EVENT
@@ -202,9 +211,7 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
                 h = 0.5 * step
             if h < m.min_step:
                 control[CONTROL_STEP] = h
-                if failure != 0:
-                    return failure, t, rows
-                return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows
+                return _stop_status(failure, finite), t, rows
             continue
         counters[ACCEPTED] += 1
         t = t_end if event == END_EVENT else t + step
@@ -303,9 +310,7 @@ def advance_abm4(t, y, t_end, m, law, pressure_table, memory, control, history, 
             if h < m.min_step:
                 control[CONTROL_STEP] = h
                 control[CONTROL_HISTORY] = valid
-                if failure != 0:
-                    return failure, t, rows
-                return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows
+                return _stop_status(failure, finite), t, rows
             continue
         counters[ACCEPTED] += 1
         t = t_end if event == END_EVENT else t + step

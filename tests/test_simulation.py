@@ -24,7 +24,7 @@ def test_advancing_in_pieces_matches_one_advance():
     assert pieces.time == pytest.approx(whole.time, abs=1e-15)
     reference, chunked = revolutions(whole)[-1], revolutions(pieces)[-1]
     for name in ("input_power", "output_power", "friction_power"):
-        assert getattr(chunked, name) == pytest.approx(getattr(reference, name), rel=1e-4), name
+        assert getattr(chunked, name) == pytest.approx(getattr(reference, name), rel=1e-3), name
 
 
 def test_interpolated_speed_over_advances_is_a_linear_ramp():
