@@ -1,5 +1,11 @@
 """Vane dynamics with clearance: geometry, contact, equations of motion and the time loop (SPEC §1-§6, §8)."""
-from .errors import IntegrationError
+from pathlib import Path
+
+from thermo.compile_cache import install as _install_compile_cache
+
+_install_compile_cache(Path(__file__).parent)       # before any kernel is defined
+
+from .errors import IntegrationError  # noqa: E402
 from .parameters import CompressorParameters, declarations
 from .simulation import History, Simulation, SimulationState
 from .speed import SpeedLaw, constant_speed, cycloidal_ramp, linear_ramp

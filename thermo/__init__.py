@@ -6,8 +6,14 @@ This package is independent of ``mechanics``: the chamber volume V(phase)
 and dV/dphase are passed in by the caller (thin-vane volume of SPEC §6.5).
 """
 
-from .nozzle import isentropic_nozzle_mass_flow
-from .pressure_tables import ideal_gas_pressure_table, polytropic_pressure_table
+from pathlib import Path
+
+from .compile_cache import install as _install_compile_cache
+
+_install_compile_cache(Path(__file__).parent)       # before any kernel is defined
+
+from .nozzle import isentropic_nozzle_mass_flow  # noqa: E402
+from .pressure_tables import ideal_gas_pressure_table, polytropic_pressure_table  # noqa: E402
 
 __all__ = [
     "isentropic_nozzle_mass_flow",
