@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .modes import distinct_modes, mode_dwell
+from .layout import OUTPUT_INDEX
 from .simulation import History
 
 BOUNDARY_TOLERANCE = 1e-7       # rad: a recorded row this close to a multiple of the period is a boundary
@@ -53,6 +54,8 @@ def boundary_rows(history: History, period: float) -> np.ndarray:
     multiple = np.round(angle / period)
     near = np.abs(angle - multiple * period) < BOUNDARY_TOLERANCE
     candidates = np.flatnonzero(near)
+    if candidates.size == 0:
+        return candidates
     first_of_multiple = np.concatenate([[True], np.diff(multiple[candidates]) != 0])
     return candidates[first_of_multiple]
 
@@ -104,3 +107,52 @@ def lobes(simulation) -> list[WindowSummary]:
     """Per-lobe summaries (2 pi / z of rotor angle each), for the z-fold periodicity check (SPEC §11 T13)."""
     p = simulation.params
     return windows(simulation.history, 2.0 * math.pi / p.lobes, p.rotor_inertia, p.mode_dwell_time)
+
+
+class RevolutionMonitor:
+    """Per-revolution figures while a run goes on, without keeping its history (what an FMU reports).
+
+    Give it to a Simulation as an observer: it buffers the rows of the current revolution only, summarises each
+    revolution as it completes (`last`), and keeps the dwell of every contact mode over the whole run.
+    """
+
+    def __init__(self, params):
+        self.period = 2.0 * math.pi
+        self.rotor_inertia = params.rotor_inertia
+        self.min_dwell = params.mode_dwell_time
+        self.pending: list[np.ndarray] = []       # rows since the last revolution boundary (boundary row first)
+        self.last_boundary: float | None = None    # multiple of the period of that boundary
+        self.last: WindowSummary | None = None     # the last completed revolution
+        self.run_dwell: dict[int, float] = {}      # mode mask -> dwell over the whole run [s]
+        self.previous_time: float | None = None
+
+    def __call__(self, rows: np.ndarray) -> None:
+        rows = np.array(rows)                      # a copy: the simulation reuses its buffer
+        times = rows[:, OUTPUT_INDEX["time"]]
+        if self.previous_time is not None:
+            times = np.concatenate([[self.previous_time], times])
+            modes = np.concatenate([[0.0], rows[:, OUTPUT_INDEX["contact_mode"]]])
+        else:
+            modes = rows[:, OUTPUT_INDEX["contact_mode"]]
+        for mask, dwell in mode_dwell(times, modes).items():
+            self.run_dwell[mask] = self.run_dwell.get(mask, 0.0) + dwell
+        self.previous_time = float(times[-1])
+        chunk = History(rows)
+        start = 0
+        for index in boundary_rows(chunk, self.period):
+            multiple = round(chunk["rotor_angle"][index] / self.period)
+            if multiple == self.last_boundary:
+                continue
+            if self.last_boundary is not None:
+                window = History(np.concatenate(self.pending + [rows[start:index + 1]]))
+                self.last = summarise(window, 0, len(window) - 1, self.rotor_inertia, self.min_dwell)
+            self.pending = []
+            self.last_boundary = multiple
+            start = index
+        if self.last_boundary is not None:
+            self.pending.append(rows[start:])
+
+    @property
+    def distinct_modes(self) -> list[int]:
+        """Modes whose dwell over the whole run reaches tau_min (SPEC §4.6)."""
+        return distinct_modes(self.run_dwell, self.min_dwell)

@@ -62,10 +62,13 @@ class Simulation:
     speed: a `SpeedLaw` from t = 0 (default constant 1500 rpm).
     initial_angle: rotor angle theta0 at t = 0 [rad]; SPEC §3.3 uses 0.02 for constant speed, 0 for start-up.
     keep_history: record every accepted step (needed for plots and revolution summaries).
+    table_speed_rpm: operating speed of the Level 0.5 pressure table (default: the speed law's target).
+    observers: callables given each chunk of accepted output rows as it is produced (they copy what they keep).
     """
 
     def __init__(self, params: CompressorParameters | None = None, speed: SpeedLaw | None = None,
-                 initial_angle: float = 0.02, keep_history: bool = True):
+                 initial_angle: float = 0.02, keep_history: bool = True, table_speed_rpm: float | None = None,
+                 observers=()):
         self.params = params if params is not None else CompressorParameters()
         speed = speed if speed is not None else constant_speed(1500.0)
         if not isinstance(speed, SpeedLaw):
@@ -73,13 +76,16 @@ class Simulation:
                              f"linear_ramp)")
         if not (isinstance(initial_angle, (int, float)) and math.isfinite(initial_angle)):
             raise ValueError(f"'initial_angle' = {initial_angle!r} is invalid: allowed a finite angle in rad")
-        operating_speed = speed.target_rpm * RPM
+        table_rpm = speed.target_rpm if table_speed_rpm is None else table_speed_rpm
+        operating_speed = check_speed("table_speed_rpm", table_rpm)
         if self.params.pressure_model == "ideal_gas_table" and operating_speed <= 0.0:
-            raise ValueError(f"'speed' target = {speed.target_rpm!r} rpm is invalid for pressure_model "
-                             f"'ideal_gas_table': allowed an operating speed > 0 rpm (the table depends on it)")
+            raise ValueError(f"'table_speed_rpm' = {table_rpm!r} rpm (the speed law's target unless given) is "
+                             f"invalid for pressure_model 'ideal_gas_table': allowed an operating speed > 0 rpm "
+                             f"(the table depends on it)")
         self.machine = machine_from_parameters(self.params)
         self.pressure_table = leading_pressure_table(self.params, operating_speed)
         self.keep_history = keep_history
+        self.observers = list(observers)
         self.time = 0.0
         self.speed_law = speed.segment(0.0, float(initial_angle))
         self.state = self._nominal_state(float(initial_angle), rotor_motion(0.0, self.speed_law)[1])
@@ -154,6 +160,8 @@ class Simulation:
                 self.last_output = self._record[rows - 1].copy()
                 if self.keep_history:
                     self._chunks.append(self._record[:rows].copy())
+                for observer in self.observers:
+                    observer(self._record[:rows])
             if status == REACHED_END:
                 return
             if status != RECORD_FULL:

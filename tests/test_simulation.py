@@ -137,3 +137,20 @@ def test_start_up_ramp_end_is_an_event():
     time = sim.history["time"]
     assert np.any(np.abs(time - 0.05) < 1e-15)
     assert sim.rotor_speed == pytest.approx(1500.0 * RPM, rel=1e-14)
+
+
+def test_revolution_monitor_matches_the_history():
+    """The FMU's running per-revolution figures equal the ones computed afterwards from the full history, also
+    when the run is advanced in small pieces (revolution boundaries fall inside the pieces)."""
+    from mechanics.performance import RevolutionMonitor
+    params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
+    monitor = RevolutionMonitor(params)
+    sim = Simulation(params, observers=[monitor])
+    for end in np.arange(1, 1001) * 1.3e-4:
+        sim.advance(float(end), speed_rpm=1500.0)
+    expected = revolutions(sim)[-1]
+    assert monitor.last.start_time == expected.start_time
+    assert monitor.last.input_power == pytest.approx(expected.input_power, rel=1e-12)
+    assert monitor.last.max_normal_force == expected.max_normal_force
+    assert monitor.last.distinct_modes == expected.distinct_modes
+    assert sum(monitor.run_dwell.values()) == pytest.approx(sim.time - sim.history["time"][0], rel=1e-12)
