@@ -1,0 +1,167 @@
+"""The compressor as an FMI 2.0 co-simulation slave: shaft speed in [rpm], torque and powers out.
+
+A thin map of FMI calls onto `mechanics.Simulation` (one per instance): parameters generated from the parameter
+declarations, the speed input held or ramped over each communication step, per-revolution figures from a
+`RevolutionMonitor`, the whole simulation state saved and restored.
+"""
+from __future__ import annotations
+
+import math
+
+from pythonfmu.default_experiment import DefaultExperiment
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
+from pythonfmu.variables import Boolean
+
+from mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
+from mechanics.layout import OUTPUT_INDEX, WORK_IN
+from mechanics.performance import RevolutionMonitor
+from mechanics.speed import check_speed
+
+from .slave import GuardedSlave
+from .variables import RealVariable, declared_parameter, integer_output, output, parameter
+
+# output name -> (unit, description); filled from the simulation after every step
+END_OF_STEP = {
+    "shaft_torque": ("N.m", "driving torque on the rotor T_d = -lambda6 at the end of the step"),
+    "stator_reaction_moment": ("N.m", "stator reaction moment lambda3 (contact + gas) at the end of the step"),
+    **{f"contact_force_{k}": ("N", f"normal force in contact region c{k} at the end of the step")
+       for k in range(1, 7)},
+    "vane_displacement": ("m", "vane radial displacement s_r (SPEC §3.4) at the end of the step"),
+    "vane_velocity": ("m/s", "vane radial velocity v_r at the end of the step"),
+    "vane_acceleration": ("m/s2", "vane radial acceleration a_r at the end of the step"),
+    "vane_tilt": ("rad", "vane tilt phi3 - theta at the end of the step"),
+    "leading_chamber_pressure": ("Pa", "leading-chamber pressure at the end of the step"),
+    "trailing_chamber_pressure": ("Pa", "trailing-chamber pressure at the end of the step"),
+}
+SOURCE_COLUMN = {
+    "shaft_torque": "driving_torque", "vane_displacement": "vane_displacement",
+    "vane_velocity": "vane_radial_velocity", "vane_acceleration": "vane_radial_acceleration",
+    "vane_tilt": "vane_tilt", "leading_chamber_pressure": "leading_pressure",
+    "trailing_chamber_pressure": "trailing_pressure",
+    **{f"contact_force_{k}": f"normal_force_{k}" for k in range(1, 7)},
+}
+PER_REVOLUTION = {
+    "input_power": ("W", "mean shaft input power over the last completed revolution (0 before the first)"),
+    "output_power": ("W", "mean power delivered to the gas over the last completed revolution"),
+    "friction_power": ("W", "mean friction power over the last completed revolution"),
+    "damping_power": ("W", "mean contact-damping power over the last completed revolution"),
+    "mechanical_efficiency": ("1", "output power / input power over the last completed revolution"),
+    "max_contact_force": ("N", "largest normal force of any region over the last completed revolution"),
+}
+# FMU-only parameters (the physics parameters come from mechanics.parameters)
+RUN_PARAMETERS = {
+    "pressure_table_speed": ("rpm", 1500.0, 1.0, 1e5,
+                             "operating speed at which the Level 0.5 pressure table is built"),
+    "initial_rotor_angle": ("rad", 0.0, -1e3, 1e3, "rotor angle theta at the start time"),
+}
+
+
+class CompressorSlave(GuardedSlave):
+    """Single sliding-vane rotary compressor with clearance, contact and friction (SPEC §1-§8)."""
+
+    description = ("Single sliding-vane rotary compressor with vane clearance, Hertz contact with hysteresis "
+                   "damping and regularised friction; shaft speed in, driving torque and powers out.")
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=0.2, step_size=1e-3)
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.simulation: Simulation | None = None
+        self.monitor: RevolutionMonitor | None = None
+        self.shaft_speed = 1500.0
+        self.interpolate_speed = True
+        self.register_variable(RealVariable(
+            "shaft_speed", "rpm", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+            minimum=0.0, description="rotor speed; held or ramped over each communication step"))
+        for name, default, meta in declarations():
+            setattr(self, name, default)
+            self.register_variable(declared_parameter(name, meta))
+        for name, (unit, default, low, high, text) in RUN_PARAMETERS.items():
+            setattr(self, name, default)
+            self.register_variable(parameter(name, unit, text, low, high))
+        self.register_variable(Boolean(
+            "interpolate_speed", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+            initial=Fmi2Initial.exact,
+            description="true: the speed moves linearly from its last value to the input over each step "
+                        "(continuous speed); false: the input is held over the step"))
+        self.outputs = dict.fromkeys([*END_OF_STEP, "shaft_torque_mean", "shaft_work", "shaft_angle",
+                                      *PER_REVOLUTION], 0.0)
+        self.contact_mode = 0
+        self.contact_mode_count = 0
+        for name, (unit, text) in {**END_OF_STEP, **PER_REVOLUTION}.items():
+            self._register_output(name, unit, text)
+        self._register_output("shaft_torque_mean", "N.m", "shaft work over the last step / angle turned in it "
+                                                          "(the instantaneous torque if the rotor stood still)")
+        self._register_output("shaft_work", "J", "cumulative shaft work since the start")
+        self._register_output("shaft_angle", "rad", "cumulative rotor angle turned since the start")
+        self.register_variable(integer_output("contact_mode", "bit mask of the regions in contact "
+                                                              "(bit k-1 for region ck) at the end of the step"))
+        self.register_variable(integer_output("contact_mode_count", "distinct contact modes so far (cumulative "
+                                                                    "dwell >= mode_dwell_time)"))
+
+    def _register_output(self, name, unit, text):
+        self.register_variable(output(name, unit, text, getter=lambda: self.outputs[name]))
+
+    # model ------------------------------------------------------------------------------------------------------
+    def initialize(self):
+        params = CompressorParameters(**{name: getattr(self, name) for name, _, _ in declarations()})
+        check_speed("shaft_speed", self.shaft_speed)
+        for name, (_, _, low, high, _) in RUN_PARAMETERS.items():
+            value = getattr(self, name)
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed [{low:g}, {high:g}]")
+        self.monitor = RevolutionMonitor(params)
+        self.simulation = Simulation(params, constant_speed(self.shaft_speed), initial_angle=self.initial_rotor_angle,
+                                     keep_history=False, table_speed_rpm=self.pressure_table_speed,
+                                     observers=[self.monitor])
+
+    def advance(self, time, step_size):
+        simulation = self.simulation
+        if not math.isclose(time, simulation.time, rel_tol=1e-12, abs_tol=1e-12):
+            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
+                               f"model time {simulation.time + self.start_time!r} s")
+        try:
+            check_speed("shaft_speed", self.shaft_speed)
+        except ValueError as error:
+            return self.refuse(str(error))
+        work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
+        try:
+            simulation.advance(simulation.time + step_size, speed_rpm=self.shaft_speed,
+                               interpolate=self.interpolate_speed)
+        except IntegrationError as error:
+            self.failure = f"the simulation stopped: {error}"
+            return self.refuse(self.failure)
+        self._update_outputs(simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before)
+        return True
+
+    def _update_outputs(self, work, angle):
+        row = self.simulation.last_output
+        values = self.outputs
+        for name, column in SOURCE_COLUMN.items():
+            values[name] = float(row[OUTPUT_INDEX[column]])
+        values["stator_reaction_moment"] = float(row[OUTPUT_INDEX["stator_contact_moment"]]
+                                                 + row[OUTPUT_INDEX["stator_gas_moment"]])
+        values["shaft_torque_mean"] = work / angle if angle > 0.0 else values["shaft_torque"]
+        values["shaft_work"] = float(self.simulation.state[WORK_IN])
+        values["shaft_angle"] = self.simulation.rotor_angle - self.initial_rotor_angle
+        last = self.monitor.last
+        if last is not None:
+            for name in ("input_power", "output_power", "friction_power", "damping_power",
+                         "mechanical_efficiency"):
+                values[name] = float(getattr(last, name))
+            values["max_contact_force"] = float(max(last.max_normal_force))
+        self.contact_mode = int(row[OUTPUT_INDEX["contact_mode"]])
+        self.contact_mode_count = len(self.monitor.distinct_modes)
+
+    # state --------------------------------------------------------------------------------------------------
+    def snapshot(self):
+        return dict(simulation=self.simulation.get_state() if self.simulation else None, monitor=self.monitor,
+                    outputs=self.outputs, contact_mode=self.contact_mode,
+                    contact_mode_count=self.contact_mode_count, failure=self.failure, shaft_speed=self.shaft_speed)
+
+    def restore(self, state):
+        if state["simulation"] is not None and self.simulation is not None:
+            self.simulation.set_state(state["simulation"])
+            self.monitor = state["monitor"]
+            self.simulation.observers = [self.monitor]
+        for name in ("outputs", "contact_mode", "contact_mode_count", "failure", "shaft_speed"):
+            setattr(self, name, state[name])
