@@ -5,6 +5,7 @@ stroke h at mid-lobe. Derivatives are with respect to the rotor angle theta.
 """
 import math
 
+import numpy as np
 from numba import njit
 
 HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = 0, 1, 2, 3
@@ -93,3 +94,12 @@ def displacement(theta, law, stroke, lobes, bottom_dwell, top_dwell):
     if law == HARMONIC_DWELL:
         return _harmonic_with_dwells(theta, stroke, lobes, bottom_dwell, top_dwell)
     return _rise_return(theta, stroke, lobes, law)
+
+
+@njit(cache=True)
+def displacement_on_grid(angles, law, stroke, lobes, bottom_dwell, top_dwell):
+    """s(theta) at every angle of an array."""
+    values = np.empty(angles.size)
+    for i in range(angles.size):
+        values[i] = displacement(angles[i], law, stroke, lobes, bottom_dwell, top_dwell)[0]
+    return values

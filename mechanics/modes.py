@@ -10,13 +10,18 @@ def mode_label(mask: int) -> str:
     return "+".join(regions) if regions else "free"
 
 
+MODE_COUNT = 64                    # 6-bit masks
+
+
+def mode_dwell_array(times: np.ndarray, modes: np.ndarray) -> np.ndarray:
+    """Dwell per mode mask (index = mask) over accepted steps: each step's length goes to the mode at its end."""
+    return np.bincount(modes[1:].astype(np.int64), weights=np.diff(times), minlength=MODE_COUNT)
+
+
 def mode_dwell(times: np.ndarray, modes: np.ndarray) -> dict[int, float]:
-    """Cumulative dwell per mode over accepted steps: each step's length goes to the mode at its end."""
-    dwell: dict[int, float] = {}
-    steps = np.diff(times)
-    for mask, step in zip(modes[1:].astype(int), steps):
-        dwell[mask] = dwell.get(mask, 0.0) + float(step)
-    return dwell
+    """Cumulative dwell per mode that occurs, as {mask: seconds}."""
+    dwell = mode_dwell_array(times, modes)
+    return {int(mask): float(dwell[mask]) for mask in np.flatnonzero(dwell)}
 
 
 def distinct_modes(dwell: dict[int, float], min_dwell: float) -> list[int]:

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .modes import distinct_modes, mode_dwell
+from .modes import MODE_COUNT, distinct_modes, mode_dwell, mode_dwell_array
 from .layout import OUTPUT_INDEX
 from .simulation import History
 
@@ -121,38 +121,37 @@ class RevolutionMonitor:
         self.rotor_inertia = params.rotor_inertia
         self.min_dwell = params.mode_dwell_time
         self.pending: list[np.ndarray] = []       # rows since the last revolution boundary (boundary row first)
-        self.last_boundary: float | None = None    # multiple of the period of that boundary
+        self.last_boundary: int | None = None      # multiple of the period of that boundary
         self.last: WindowSummary | None = None     # the last completed revolution
-        self.run_dwell: dict[int, float] = {}      # mode mask -> dwell over the whole run [s]
-        self.previous_time: float | None = None
+        self.run_dwell = np.zeros(MODE_COUNT)      # dwell per mode mask over the whole run [s]
+        self.previous_row: np.ndarray | None = None
 
     def __call__(self, rows: np.ndarray) -> None:
         rows = np.array(rows)                      # a copy: the simulation reuses its buffer
-        times = rows[:, OUTPUT_INDEX["time"]]
-        if self.previous_time is not None:
-            times = np.concatenate([[self.previous_time], times])
-            modes = np.concatenate([[0.0], rows[:, OUTPUT_INDEX["contact_mode"]]])
-        else:
-            modes = rows[:, OUTPUT_INDEX["contact_mode"]]
-        for mask, dwell in mode_dwell(times, modes).items():
-            self.run_dwell[mask] = self.run_dwell.get(mask, 0.0) + dwell
-        self.previous_time = float(times[-1])
-        chunk = History(rows)
+        time_and_mode = rows[:, [OUTPUT_INDEX["time"], OUTPUT_INDEX["contact_mode"]]]
+        if self.previous_row is not None:
+            time_and_mode = np.vstack([self.previous_row, time_and_mode])
+        self.run_dwell += mode_dwell_array(time_and_mode[:, 0], time_and_mode[:, 1])
+        self.previous_row = time_and_mode[-1]
+        angle = rows[:, OUTPUT_INDEX["rotor_angle"]]
+        reachable = math.floor(angle[-1] / self.period + BOUNDARY_TOLERANCE)
         start = 0
-        for index in boundary_rows(chunk, self.period):
-            multiple = round(chunk["rotor_angle"][index] / self.period)
-            if multiple == self.last_boundary:
-                continue
-            if self.last_boundary is not None:
-                window = History(np.concatenate(self.pending + [rows[start:index + 1]]))
-                self.last = summarise(window, 0, len(window) - 1, self.rotor_inertia, self.min_dwell)
-            self.pending = []
-            self.last_boundary = multiple
-            start = index
+        if self.last_boundary is None or reachable > self.last_boundary:
+            chunk = History(rows)
+            for index in boundary_rows(chunk, self.period):
+                multiple = round(angle[index] / self.period)
+                if multiple == self.last_boundary:
+                    continue
+                if self.last_boundary is not None:
+                    window = History(np.concatenate(self.pending + [rows[start:index + 1]]))
+                    self.last = summarise(window, 0, len(window) - 1, self.rotor_inertia, self.min_dwell)
+                self.pending = []
+                self.last_boundary = multiple
+                start = index
         if self.last_boundary is not None:
             self.pending.append(rows[start:])
 
     @property
     def distinct_modes(self) -> list[int]:
         """Modes whose dwell over the whole run reaches tau_min (SPEC §4.6)."""
-        return distinct_modes(self.run_dwell, self.min_dwell)
+        return [int(mask) for mask in np.flatnonzero(self.run_dwell >= self.min_dwell)]

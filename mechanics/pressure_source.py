@@ -9,7 +9,7 @@ import numpy as np
 
 from thermo import ideal_gas_pressure_table, polytropic_pressure_table
 
-from .displacement import displacement
+from .displacement import displacement_on_grid
 from .geometry import law_arguments
 
 TABLE_POINTS = 20001          # 20000 intervals over the lobe, SPEC §7.5
@@ -22,7 +22,7 @@ def thin_vane_volume(params, phase):
     The integral is taken with the composite trapezoidal rule on the (fine, uniform) grid.
     """
     law, stroke, lobes, bottom_dwell, top_dwell, _ = law_arguments(params)
-    stroke_values = np.array([displacement(p, law, stroke, lobes, bottom_dwell, top_dwell)[0] for p in phase])
+    stroke_values = displacement_on_grid(phase, law, stroke, lobes, bottom_dwell, top_dwell)
     derivative = -0.5 * params.axial_length * ((params.rotor_radius + stroke_values) ** 2
                                                - params.rotor_radius ** 2)
     steps = np.diff(phase)

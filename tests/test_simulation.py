@@ -153,4 +153,4 @@ def test_revolution_monitor_matches_the_history():
     assert monitor.last.input_power == pytest.approx(expected.input_power, rel=1e-12)
     assert monitor.last.max_normal_force == expected.max_normal_force
     assert monitor.last.distinct_modes == expected.distinct_modes
-    assert sum(monitor.run_dwell.values()) == pytest.approx(sim.time - sim.history["time"][0], rel=1e-12)
+    assert monitor.run_dwell.sum() == pytest.approx(sim.time - sim.history["time"][0], rel=1e-12)
