@@ -25,6 +25,7 @@ from .slave import VERSION
 PROJECT_DIR = Path(__file__).resolve().parent.parent
 MODELS = {  # model identifier -> (module in fmu_src, slave class)
     "RotaryVaneCompressor": ("compressor", "CompressorSlave"),
+    "DriveMotor": ("motor", "MotorSlave"),
 }
 REQUIREMENTS = ("numpy>=1.26", "numba>=0.59", "scipy>=1.11")
 IMPORT_PATTERN = re.compile(r"^(\s*)(from|import) (" + "|".join(PROJECT_PACKAGES) + r")\b", re.MULTILINE)
@@ -40,6 +41,11 @@ from {private}.fmu_src.{module} import {cls} as Fmi2Slave
 
 class {model}(Fmi2Slave):
     """{description}"""
+
+
+# pythonfmu 0.7.0 releases, at every fmi2Instantiate, a reference to this module's globals that it does not own;
+# without one extra reference per instance a second instance in the same process fails or crashes.
+globals().setdefault("_PYTHONFMU_GLOBALS_REFERENCES", []).append(globals())
 '''
 
 
@@ -84,10 +90,11 @@ rotary-vane-compressor project, version {VERSION}. All values are SI except the 
 <code>resources/requirements.txt</code> (numpy, numba, scipy). The first run on a machine compiles the numerical
 kernels (about 10 s, once); they are cached in <code>~/.cache/rotary-vane-compressor/numba</code>
 (or <code>$ROTARY_VANE_CACHE_DIR</code>).</p>
+<p>{html.escape(getattr(slave_class, "documentation_note", ""))}</p>
 <p>fmpy (pass the communication step as <code>output_interval</code>, turn debug logging on):</p>
 <pre>from fmpy import simulate_fmu
 result = simulate_fmu("{model}.fmu", stop_time=0.2, output_interval=1e-3, debug_logging=True,
-                      start_values={{"shaft_speed": 1500.0, "slot_clearance": 5e-5, "stator_clearance": 5e-5}})</pre>
+                      start_values={slave_class.example_start_values!r})</pre>
 <p>libcosim (libcosimpy): add the FMU to an execution (<code>CosimExecution.from_step_size</code>,
 <code>add_local_slave</code>), connect <code>shaft_speed</code> from a motor and read <code>shaft_torque_mean</code>;
 times are integer nanoseconds.</p>
@@ -130,6 +137,9 @@ def build(out_dir: Path) -> list[Path]:
             sys.path.remove(str(staging))
             for name in [m for m in sys.modules if m == private or m.startswith(private + ".")]:
                 del sys.modules[name]
+    systems = PROJECT_DIR / "fmu_src" / "systems"       # OSP and SSP system files: they run next to the FMUs
+    for system in [*systems.glob("*.xml"), *systems.glob("*.ssd")]:
+        shutil.copy(system, out_dir)
     return built
 
 

@@ -62,6 +62,9 @@ class CompressorSlave(GuardedSlave):
     description = ("Single sliding-vane rotary compressor with vane clearance, Hertz contact with hysteresis "
                    "damping and regularised friction; shaft speed in, driving torque and powers out.")
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=0.2, step_size=1e-3)
+    example_start_values = {"shaft_speed": 1500.0, "slot_clearance": 5e-5, "stator_clearance": 5e-5}
+    documentation_note = ("Coupled to a motor model that integrates the shaft with the rotor inertia, set "
+                          "rotor_inertia = 0 here: the driving torque otherwise contains J2 dw/dt a second time.")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
