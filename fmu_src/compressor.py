@@ -15,7 +15,6 @@ from pythonfmu.variables import Boolean
 from mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from mechanics.layout import OUTPUT_INDEX, WORK_IN
 from mechanics.performance import RevolutionMonitor
-from mechanics.speed import check_speed
 
 from .slave import GuardedSlave
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
@@ -48,6 +47,7 @@ PER_REVOLUTION = {
     "mechanical_efficiency": ("1", "output power / input power over the last completed revolution"),
     "max_contact_force": ("N", "largest normal force of any region over the last completed revolution"),
 }
+MAX_SHAFT_SPEED = 30000.0             # rpm: far above any vane compressor; beyond it the input is refused
 # FMU-only parameters (the physics parameters come from mechanics.parameters)
 RUN_PARAMETERS = {
     "pressure_table_speed": ("rpm", 1500.0, 1.0, 1e5,
@@ -74,7 +74,7 @@ class CompressorSlave(GuardedSlave):
         self.interpolate_speed = True
         self.register_variable(RealVariable(
             "shaft_speed", "rpm", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
-            minimum=0.0, description="rotor speed; held or ramped over each communication step"))
+            minimum=0.0, maximum=MAX_SHAFT_SPEED, description="rotor speed; held or ramped over each communication step"))
         for name, default, meta in declarations():
             setattr(self, name, default)
             self.register_variable(declared_parameter(name, meta))
@@ -107,7 +107,9 @@ class CompressorSlave(GuardedSlave):
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
         params = CompressorParameters(**{name: getattr(self, name) for name, _, _ in declarations()})
-        check_speed("shaft_speed", self.shaft_speed)
+        if not (math.isfinite(self.shaft_speed) and 0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
+            raise ValueError(f"input 'shaft_speed' = {self.shaft_speed!r} rpm at initialization is invalid: "
+                             f"allowed [0, {MAX_SHAFT_SPEED:g}] rpm")
         for name, (_, _, low, high, _) in RUN_PARAMETERS.items():
             value = getattr(self, name)
             if not (math.isfinite(value) and low <= value <= high):
@@ -122,10 +124,11 @@ class CompressorSlave(GuardedSlave):
         if not math.isclose(time, simulation.time, rel_tol=1e-12, abs_tol=1e-12):
             return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
                                f"model time {simulation.time + self.start_time!r} s")
-        try:
-            check_speed("shaft_speed", self.shaft_speed)
-        except ValueError as error:
-            return self.refuse(str(error))
+        if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
+            return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
+                               f"[0, {MAX_SHAFT_SPEED:g}] rpm")
+        if simulation.time + step_size == simulation.time:
+            return True                             # below the resolution of the model time: nothing to do
         work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
         try:
             simulation.advance(simulation.time + step_size, speed_rpm=self.shaft_speed,
@@ -162,7 +165,11 @@ class CompressorSlave(GuardedSlave):
                     contact_mode_count=self.contact_mode_count, failure=self.failure, shaft_speed=self.shaft_speed)
 
     def restore(self, state):
-        if state["simulation"] is not None and self.simulation is not None:
+        if state["simulation"] is None:             # a state from before initialization
+            self.simulation = self.monitor = None
+        elif self.simulation is None:
+            self.failure = "setFMUstate: a state of an initialized instance needs an initialized instance"
+        else:
             self.simulation.set_state(state["simulation"])
             self.monitor = state["monitor"]
             self.simulation.observers = [self.monitor]

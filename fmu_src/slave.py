@@ -47,6 +47,7 @@ class GuardedSlave(PythonFmuSlave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.start_time = 0.0
+        self.initialized = False
         self.failure: str | None = None      # set when the instance cannot go on (bad parameters, failed run)
 
     # reporting --------------------------------------------------------------------------------------------
@@ -67,6 +68,10 @@ class GuardedSlave(PythonFmuSlave):
 
     @guarded
     def exit_initialization_mode(self):
+        if self.initialized:
+            self.report("exitInitializationMode called again: ignored (use fmi2Reset to start over)")
+            return
+        self.initialized = True
         try:
             self.initialize()
         except ValueError as error:
@@ -75,6 +80,8 @@ class GuardedSlave(PythonFmuSlave):
 
     @guarded
     def do_step(self, current_time, step_size):
+        if not self.initialized:
+            return self.refuse("doStep called before exitInitializationMode")
         if self.failure is not None:
             return self.refuse(f"step refused: {self.failure}")
         if not (step_size > 0.0) or step_size == float("inf"):
@@ -84,11 +91,16 @@ class GuardedSlave(PythonFmuSlave):
     # state --------------------------------------------------------------------------------------------------
     @guarded
     def _get_fmu_state(self):
-        return copy.deepcopy(self.snapshot())
+        return dict(copy.deepcopy(self.snapshot()), initialized=self.initialized)
 
     @guarded
     def _set_fmu_state(self, state):
-        self.restore(copy.deepcopy(state))
+        if not isinstance(state, dict) or "initialized" not in state:
+            self.report(f"setFMUstate: {type(state).__name__} is not a state of this FMU")
+            return
+        state = copy.deepcopy(state)
+        self.initialized = state.pop("initialized")
+        self.restore(state)
 
     @staticmethod
     def _fmu_state_to_bytes(state) -> bytes:
@@ -96,7 +108,44 @@ class GuardedSlave(PythonFmuSlave):
 
     @staticmethod
     def _fmu_state_from_bytes(state: bytes):
-        return pickle.loads(state)
+        try:
+            return pickle.loads(state)
+        except Exception as error:          # noqa: BLE001 - garbage bytes must not become fmi2Fatal
+            print(f"deSerializeFMUstate: not a state of this FMU ({type(error).__name__}: {error})",
+                  file=sys.stderr, flush=True)
+            return None
+
+    # variable access: pythonfmu raises on unknown references or wrong types, which would be fmi2Fatal -----------
+    def _checked_access(self, method, references, *values, default=None):
+        try:
+            return method(references, *values)
+        except Exception as error:          # noqa: BLE001
+            self.report(f"{method.__name__}{tuple(references)}: {type(error).__name__}: {error}")
+            return None if default is None else [default] * len(references)
+
+    def get_real(self, vrs):
+        return self._checked_access(super().get_real, vrs, default=float("nan"))
+
+    def get_integer(self, vrs):
+        return self._checked_access(super().get_integer, vrs, default=0)
+
+    def get_boolean(self, vrs):
+        return self._checked_access(super().get_boolean, vrs, default=False)
+
+    def get_string(self, vrs):
+        return self._checked_access(super().get_string, vrs, default="")
+
+    def set_real(self, vrs, values):
+        self._checked_access(super().set_real, vrs, values)
+
+    def set_integer(self, vrs, values):
+        self._checked_access(super().set_integer, vrs, values)
+
+    def set_boolean(self, vrs, values):
+        self._checked_access(super().set_boolean, vrs, values)
+
+    def set_string(self, vrs, values):
+        self._checked_access(super().set_string, vrs, values)
 
     # modelDescription ---------------------------------------------------------------------------------------
     def to_xml(self, model_options=dict()):

@@ -125,7 +125,7 @@ class Simulation:
     def _speed_for_advance(self, end_time: float, speed_rpm: float, interpolate: bool) -> None:
         omega_target = check_speed("speed_rpm", speed_rpm)
         theta, omega, _ = rotor_motion(self.time, self.speed_law)
-        if interpolate:
+        if interpolate and end_time > self.time:
             law = np.array([1.0, self.time, theta, omega, omega_target, end_time - self.time])
         else:
             law = np.array([0.0, self.time, theta, omega_target, omega_target, 0.0])
