@@ -124,7 +124,7 @@ def build(out_dir: Path) -> list[Path]:
         try:
             for model, (module, cls) in MODELS.items():
                 slave_class = getattr(__import__(f"{private}.fmu_src.{module}", fromlist=[cls]), cls)
-                entry = staging / f"{model}.py"
+                entry = staging / f"{private}_{model}.py"     # unique module name per version
                 entry.write_text(ENTRY_MODULE.format(model=model, private=private, module=module, cls=cls,
                                                      description=slave_class.__doc__))
                 documentation = staging / f"documentation_{model}"

@@ -160,18 +160,24 @@ class CompressorSlave(GuardedSlave):
 
     # state --------------------------------------------------------------------------------------------------
     def snapshot(self):
+        parameters = {name: getattr(self, name) for name in [*(n for n, _, _ in declarations()), *RUN_PARAMETERS,
+                                                              "interpolate_speed"]}
         return dict(simulation=self.simulation.get_state() if self.simulation else None, monitor=self.monitor,
-                    outputs=self.outputs, contact_mode=self.contact_mode,
-                    contact_mode_count=self.contact_mode_count, failure=self.failure, shaft_speed=self.shaft_speed)
+                    outputs=self.outputs, contact_mode=self.contact_mode, parameters=parameters,
+                    start_time=self.start_time, contact_mode_count=self.contact_mode_count, failure=self.failure,
+                    shaft_speed=self.shaft_speed)
 
     def restore(self, state):
+        """Restore a state; an instance that is not initialized yet is built from the state's parameters."""
+        for name, value in state["parameters"].items():
+            setattr(self, name, value)
+        for name in ("outputs", "contact_mode", "contact_mode_count", "failure", "shaft_speed", "start_time"):
+            setattr(self, name, state[name])
         if state["simulation"] is None:             # a state from before initialization
             self.simulation = self.monitor = None
-        elif self.simulation is None:
-            self.failure = "setFMUstate: a state of an initialized instance needs an initialized instance"
-        else:
-            self.simulation.set_state(state["simulation"])
-            self.monitor = state["monitor"]
-            self.simulation.observers = [self.monitor]
-        for name in ("outputs", "contact_mode", "contact_mode_count", "failure", "shaft_speed"):
-            setattr(self, name, state[name])
+            return
+        if self.simulation is None:
+            self.initialize()
+        self.simulation.set_state(state["simulation"])
+        self.monitor = state["monitor"]
+        self.simulation.observers = [self.monitor]

@@ -18,7 +18,7 @@ from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_ST
                           advance_dopri5)
 from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_LOBE_START, MEMORY_SIZE,
                      OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE, REACHED_END, RECORD_FULL, STATE_SIZE, STATUS_TEXT, VX,
-                     VY, X, Y)
+                     VY, WORK_IN, X, Y)
 from .machine import machine_from_parameters
 from .parameters import CompressorParameters
 from .pressure_source import leading_pressure_table
@@ -129,6 +129,8 @@ class Simulation:
             law = np.array([1.0, self.time, theta, omega, omega_target, end_time - self.time])
         else:
             law = np.array([0.0, self.time, theta, omega_target, omega_target, 0.0])
+            # a held speed jumps: the motor delivers the rotor's kinetic energy 1/2 J2 (w2^2 - w1^2) at once
+            self.state[WORK_IN] += 0.5 * self.params.rotor_inertia * (omega_target ** 2 - omega ** 2)
         if not np.array_equal(law[[0, 3, 4]], self.speed_law[[0, 3, 4]]) or interpolate:
             self.speed_law = law
             self.control[CONTROL_HISTORY] = 0
