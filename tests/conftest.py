@@ -368,3 +368,10 @@ def pytest_terminal_summary(terminalreporter):
         terminalreporter.section("observed worst values / limits")
         for label, (worst, limit) in sorted(_MARGINS.items()):
             terminalreporter.write_line(f"{label:70s} {worst:10.3e} / {limit:.3e}")
+
+
+@pytest.fixture(scope="session")
+def built_fmus(tmp_path_factory):
+    """All FMUs and system files of this checkout, built once per test session into a temporary folder."""
+    import fmu_helpers
+    return fmu_helpers.build_fmu(tmp_path_factory.mktemp("built_fmus")).parent

@@ -279,3 +279,11 @@ def simulate(fmu: str | Path, **kwargs) -> dict:
 
 def finite(values) -> bool:
     return all(math.isfinite(v) for v in values)
+
+
+KNOWN_EXIT_SIGNALS = (-6, -11)   # pythonfmu 0.7.0's unload destructor corrupts the heap at exit (SIGABRT/SIGSEGV)
+
+
+def finished(returncode: int, stdout: str) -> bool:
+    """A host script finished: exit status 0, or the known pythonfmu crash at exit after it printed its RESULT."""
+    return returncode == 0 or (returncode in KNOWN_EXIT_SIGNALS and "RESULT " in stdout)

@@ -60,13 +60,10 @@ def host_environment(libpython: Path) -> dict[str, str]:
 
 
 @pytest.fixture(scope="session")
-def c_host_fmu(tmp_path_factory):
-    """The FMU built once for this module (subprocess), unzipped in Python, and its modelDescription facts."""
-    out = tmp_path_factory.mktemp("c_host_fmu")
-    subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out)], cwd=PROJECT, check=True,
-                   capture_output=True, timeout=600)
-    fmu = out / f"{MODEL}.fmu"
-    unzipdir = out / "unzipped"
+def c_host_fmu(built_fmus, tmp_path_factory):
+    """The FMU built once per session, unzipped in Python, and its modelDescription facts."""
+    fmu = built_fmus / f"{MODEL}.fmu"
+    unzipdir = tmp_path_factory.mktemp("c_host_fmu") / "unzipped"
     with zipfile.ZipFile(fmu) as archive:
         archive.extractall(unzipdir)
     root = ElementTree.parse(unzipdir / "modelDescription.xml").getroot()

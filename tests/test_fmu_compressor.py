@@ -90,12 +90,12 @@ def assert_no_fatal(statuses, context=""):
 
 # fixtures -------------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def fmu(tmp_path_factory) -> Path:
-    """RotaryVaneCompressor.fmu built from this checkout into a temporary folder (or the file named by the
-    environment variable RVC_FMU_UNDER_TEST, to test a given build)."""
+def fmu(built_fmus) -> Path:
+    """RotaryVaneCompressor.fmu built once per session from this checkout (or the file named by the environment
+    variable RVC_FMU_UNDER_TEST, to test a given build)."""
     if os.environ.get("RVC_FMU_UNDER_TEST"):
         return Path(os.environ["RVC_FMU_UNDER_TEST"]).resolve()
-    return H.build_fmu(tmp_path_factory.mktemp("fmu"))
+    return built_fmus / "RotaryVaneCompressor.fmu"
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+import fmu_helpers
+
 PROJECT = Path(__file__).resolve().parent.parent
 RPM = 2.0 * math.pi / 60.0
 STEP, STOP, MARKS = 1e-3, 0.4, (0.24, 0.32, 0.40)
@@ -134,7 +136,8 @@ print("RESULT " + json.dumps(dict(ok=ok, records=records, steps=steps)))
 def run_script(script, spec, cwd, timeout=300):
     process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
                              text=True, timeout=timeout)
-    assert process.returncode == 0, f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
+    assert fmu_helpers.finished(process.returncode, process.stdout), \
+        f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
     lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
     assert lines, f"no result:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
     return json.loads(lines[-1][len("RESULT "):])
@@ -168,13 +171,9 @@ def kloss_speed(load_torque):
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    """Build the FMUs (and copy the system files next to them) once into a temporary folder."""
-    out = tmp_path_factory.mktemp("fmu")
-    process = subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out)], cwd=PROJECT,
-                             capture_output=True, text=True, timeout=300)
-    assert process.returncode == 0, process.stderr
-    return out
+def fmus(built_fmus):
+    """The FMUs and the system files next to them, built once per session."""
+    return built_fmus
 
 
 @pytest.fixture(scope="module")

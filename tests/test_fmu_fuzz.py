@@ -729,14 +729,11 @@ PROJECT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="session")
-def fuzz_fmu(tmp_path_factory):
-    """The compressor FMU, built once for this module into pytest's tmp folder, and unzipped."""
-    out = tmp_path_factory.mktemp("fuzz_fmu")
-    subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out)], cwd=PROJECT, check=True,
-                   capture_output=True, timeout=600)
-    fmu = out / f"{MODEL}.fmu"
+def fuzz_fmu(built_fmus, tmp_path_factory):
+    """The compressor FMU built once per session, unzipped."""
+    fmu = built_fmus / f"{MODEL}.fmu"
     import zipfile
-    unzipdir = out / "unzipped"
+    unzipdir = tmp_path_factory.mktemp("fuzz_fmu") / "unzipped"
     with zipfile.ZipFile(fmu) as archive:
         archive.extractall(unzipdir)
     return fmu, unzipdir

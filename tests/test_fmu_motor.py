@@ -18,6 +18,8 @@ from xml.etree import ElementTree
 import numpy as np
 import pytest
 
+import fmu_helpers
+
 PROJECT = Path(__file__).resolve().parent.parent
 RPM = 2.0 * math.pi / 60.0
 
@@ -48,7 +50,8 @@ def run_script(script, spec, cwd, timeout=120):
     """Run `script` in a fresh interpreter in `cwd` with the JSON `spec` as argv[1]; return (RESULT, process)."""
     process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
                              text=True, timeout=timeout)
-    assert process.returncode == 0, f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
+    assert fmu_helpers.finished(process.returncode, process.stdout), \
+        f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
     lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
     assert lines, f"no result:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
     return json.loads(lines[-1][len("RESULT "):]), process
@@ -65,14 +68,10 @@ print("RESULT " + json.dumps({name: result[name].tolist() for name in result.dty
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    """Build all FMUs once into a temporary folder; return the folder."""
-    out = tmp_path_factory.mktemp("fmu")
-    process = subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out)], cwd=PROJECT,
-                             capture_output=True, text=True, timeout=300)
-    assert process.returncode == 0, process.stderr
-    assert (out / "DriveMotor.fmu").is_file()
-    return out
+def fmus(built_fmus):
+    """The folder of the FMUs built once per session."""
+    assert (built_fmus / "DriveMotor.fmu").is_file()
+    return built_fmus
 
 
 @pytest.fixture(scope="module")
