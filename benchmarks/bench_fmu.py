@@ -36,6 +36,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from report import heading, table  # benchmarks/ is the script's folder
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 MODEL = "RotaryVaneCompressor"
 RPM = 1500.0
@@ -50,19 +52,6 @@ CORE_CASES = ("core stepped as the glue", "core stepped plain", "core one advanc
 
 
 # helpers ----------------------------------------------------------------------------------------------------
-def table(headers: list[str], rows: list[list[str]]) -> str:
-    """Right-aligned columns (the first column left-aligned)."""
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(headers)]
-
-    def line(cells):
-        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
-    return "\n".join([line(headers), line(["-" * w for w in widths])] + [line(r) for r in rows])
-
-
-def heading(text: str) -> None:
-    print(f"\n{text}\n{'=' * len(text)}")
-
-
 def run_worker(arguments: dict, env_changes: dict[str, str] | None = None, timeout: float = 600.0,
                attempts: int = 3) -> dict:
     """This file as a worker process with `arguments` (JSON); returns its JSON result and the process wall.

@@ -16,7 +16,6 @@ import hashlib
 import json
 import math
 import os
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -28,6 +27,7 @@ if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
 import numpy as np  # noqa: E402
+from report import heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 
 RPM = 1500.0
 REVOLUTION = 60.0 / RPM                    # s of simulated time per revolution (0.04 s)
@@ -51,19 +51,6 @@ def parameters(clearance_mm: float, integrator: str):
 def new_simulation(params, keep_history: bool = False):
     from mechanics import Simulation, constant_speed
     return Simulation(params, speed=constant_speed(RPM), keep_history=keep_history)
-
-
-def table(headers: list[str], rows: list[list[str]]) -> str:
-    """Right-aligned columns (the first column left-aligned)."""
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(headers)]
-
-    def line(cells):
-        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
-    return "\n".join([line(headers), line(["-" * w for w in widths])] + [line(r) for r in rows])
-
-
-def heading(text: str) -> None:
-    print(f"\n{text}\n{'=' * len(text)}")
 
 
 def run_subprocess(args: list[str], env_changes: dict[str, str]) -> tuple[dict, float]:

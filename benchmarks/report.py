@@ -1,0 +1,14 @@
+"""Printing helpers shared by the benchmarks: aligned tables and section headings."""
+
+
+def table(headers: list[str], rows: list[list[str]]) -> str:
+    """Right-aligned columns (the first column left-aligned)."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(headers)]
+
+    def line(cells):
+        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+    return "\n".join([line(headers), line(["-" * w for w in widths])] + [line(r) for r in rows])
+
+
+def heading(text: str) -> None:
+    print(f"\n{text}\n{'=' * len(text)}")
