@@ -287,3 +287,15 @@ KNOWN_EXIT_SIGNALS = (-6, -11)   # pythonfmu 0.7.0's unload destructor corrupts 
 def finished(returncode: int, stdout: str) -> bool:
     """A host script finished: exit status 0, or the known pythonfmu crash at exit after it printed its RESULT."""
     return returncode == 0 or (returncode in KNOWN_EXIT_SIGNALS and "RESULT " in stdout)
+
+
+def run_json_script(script: str, spec: dict, cwd, timeout: float = 300.0):
+    """Run `script` in a fresh interpreter in `cwd` with the JSON `spec` as argv[1]; it prints one line
+    'RESULT <json>'. Return (that result, the completed process); fail if the script did not finish."""
+    process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
+                             text=True, timeout=timeout)
+    assert finished(process.returncode, process.stdout), \
+        f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
+    lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
+    assert lines, f"no result:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
+    return json.loads(lines[-1][len("RESULT "):]), process

@@ -11,10 +11,7 @@ the vane-passing torque ripple does not alias. Each run is a subprocess with eac
 (pythonfmu 0.7.0 cannot instantiate the same FMU twice in a process) and every libcosim object destroyed before
 the interpreter exits (otherwise the exit can hang: libcosim's worker thread then calls into a finalizing Python).
 """
-import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -133,16 +130,6 @@ print("RESULT " + json.dumps(dict(ok=ok, records=records, steps=steps)))
 '''
 
 
-def run_script(script, spec, cwd, timeout=300):
-    process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
-                             text=True, timeout=timeout)
-    assert fmu_helpers.finished(process.returncode, process.stdout), \
-        f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
-    lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
-    assert lines, f"no result:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
-    return json.loads(lines[-1][len("RESULT "):])
-
-
 def summary(result):
     """Figures of a run from its records at MARKS (cumulative outputs, so no aliasing of the torque ripple)."""
     first, middle, end = (dict(zip(RECORD, record)) for record in result["records"])
@@ -179,7 +166,7 @@ def fmus(built_fmus):
 @pytest.fixture(scope="module")
 def reference(fmus):
     """The Gauss-Seidel master (fmpy, motor first) at the same 1 ms step."""
-    result = run_script(GAUSS_SEIDEL, dict(motor=str(fmus / "DriveMotor.fmu"), motor_start=MOTOR_START,
+    result, _ = fmu_helpers.run_json_script(GAUSS_SEIDEL, dict(motor=str(fmus / "DriveMotor.fmu"), motor_start=MOTOR_START,
                                            compressor=str(fmus / "RotaryVaneCompressor.fmu"),
                                            compressor_start=COMPRESSOR_START, step=STEP, stop=STOP, marks=MARKS),
                         fmus)
@@ -216,7 +203,7 @@ def test_libcosim_agrees_with_gauss_seidel(fmus, reference, check, name):
     the motor then delivers about 2 % less energy than the compressor takes (more with looser tolerances), so for
     ECCO the electrical power is printed, not compared.
     """
-    result = run_script(LIBCOSIM, dict(SYSTEMS[name], folder=str(fmus), step=STEP, marks=MARKS, ecco=ECCO,
+    result, _ = fmu_helpers.run_json_script(LIBCOSIM, dict(SYSTEMS[name], folder=str(fmus), step=STEP, marks=MARKS, ecco=ECCO,
                                        motor_start=MOTOR_START, compressor_start=COMPRESSOR_START), fmus)
     assert result["ok"] == [True] * len(MARKS), "simulate_until failed"
     figures = summary(result)

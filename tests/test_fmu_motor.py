@@ -7,7 +7,6 @@ globals that it does not own), so each subprocess instantiates each FMU once and
 The references below are written from the model equations (Kloss curve, DC armature circuit, shaft), not
 imported from the project.
 """
-import json
 import math
 import subprocess
 import sys
@@ -46,17 +45,6 @@ def kloss(rated_power, rated_speed, supply_frequency, pole_pairs, breakdown_torq
     return w_s, t_r, t_b, s_b, torque
 
 
-def run_script(script, spec, cwd, timeout=120):
-    """Run `script` in a fresh interpreter in `cwd` with the JSON `spec` as argv[1]; return (RESULT, process)."""
-    process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
-                             text=True, timeout=timeout)
-    assert fmu_helpers.finished(process.returncode, process.stdout), \
-        f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
-    lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
-    assert lines, f"no result:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
-    return json.loads(lines[-1][len("RESULT "):]), process
-
-
 SIMULATE = r'''
 import json, sys
 from fmpy import simulate_fmu
@@ -78,7 +66,7 @@ def fmus(built_fmus):
 def simulate(fmus):
     """simulate(start_values, stop, step) -> dict of numpy arrays; asserts that the run reached the stop time."""
     def run(start, stop, step):
-        result, _ = run_script(SIMULATE, dict(fmu=str(fmus / "DriveMotor.fmu"), start=start, stop=stop, step=step),
+        result, _ = fmu_helpers.run_json_script(SIMULATE, dict(fmu=str(fmus / "DriveMotor.fmu"), start=start, stop=stop, step=step),
                                fmus)
         result = {name: np.array(values) for name, values in result.items()}
         assert result["time"][-1] == pytest.approx(stop, abs=step / 2), "the run stopped early (a discarded step)"
@@ -287,10 +275,10 @@ print("RESULT " + json.dumps(result))
 
 def test_state_get_set_and_serialization_across_processes(fmus):
     fmu = str(fmus / "DriveMotor.fmu")
-    first, _ = run_script(STATE, dict(fmu=fmu, serialized=None), fmus)
+    first, _ = fmu_helpers.run_json_script(STATE, dict(fmu=fmu, serialized=None), fmus)
     assert first["again"] == first["first"]               # fmi2SetFMUstate rolls back every state exactly
     assert first["first"][0][1] > 1.0                       # the current is part of the state
-    second, _ = run_script(STATE, dict(fmu=fmu, serialized=first["serialized"]), fmus)
+    second, _ = fmu_helpers.run_json_script(STATE, dict(fmu=fmu, serialized=first["serialized"]), fmus)
     assert second["restored"] == first["first"]             # a state serialized in one process, restored in another
 
 
@@ -345,7 +333,7 @@ def test_bad_parameters_and_inputs_give_clear_messages(fmus):
     cases.append(dict(parameters={}, steps=[{"load_torque": "nan"}, {"load_torque": 1.0}], times=[0.0, 0.0]))
     cases.append(dict(parameters={}, steps=[{}, {}], times=[0.0, 0.0], sizes=[1e4, 1e-3]))   # 7e6 substeps
     cases.append(dict(parameters={}, steps=[{}, {}], times=[0.0, 0.5]))         # t = 0.5 s skips model time
-    outcomes, process = run_script(ERRORS, dict(fmu=str(fmus / "DriveMotor.fmu"), cases=cases), fmus)
+    outcomes, process = fmu_helpers.run_json_script(ERRORS, dict(fmu=str(fmus / "DriveMotor.fmu"), cases=cases), fmus)
     messages = process.stderr.split("CASE-STEP")
     for index, (_, words) in enumerate(BAD_PARAMETERS):
         assert "discard" in outcomes[index][0]
