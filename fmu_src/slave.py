@@ -18,6 +18,7 @@ from xml.etree.ElementTree import SubElement
 from pythonfmu import Fmi2Slave as PythonFmuSlave
 from pythonfmu.enums import Fmi2Causality, Fmi2Status
 
+from .exit_guard import release_at_exit
 from .variables import RealVariable, unit_definitions
 
 AUTHOR = "Rotary vane compressor simulator team"
@@ -49,6 +50,7 @@ class GuardedSlave(PythonFmuSlave):
         self.start_time = 0.0
         self.initialized = False
         self.failure: str | None = None      # set when the instance cannot go on (bad parameters, failed run)
+        release_at_exit(self.resources, self.modelName)
 
     # reporting --------------------------------------------------------------------------------------------
     def report(self, message: str, status: Fmi2Status = Fmi2Status.error) -> None:

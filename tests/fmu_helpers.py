@@ -77,14 +77,8 @@ class HostRun:
                                  f"stdout:\n{self.stdout[-3000:]}\nstderr:\n{self.stderr[-3000:]}")
         return self.results[-1]
 
-    def check(self, allow_crash_at_exit: bool = False) -> "HostRun":
-        """Assert a clean exit (status 0: no crash, also not at interpreter exit); return self.
-
-        allow_crash_at_exit: accept death by SIGABRT or SIGSEGV after the script emitted its last line (a known
-        crash at interpreter exit, covered by a test of its own), so that the other checks still run."""
-        if allow_crash_at_exit and self.returncode in (-6, -11) and self.results and \
-                self.stdout.rstrip().splitlines()[-1].startswith(RESULT_PREFIX):
-            return self
+    def check(self) -> "HostRun":
+        """Assert a clean exit (status 0: no crash, also not at interpreter exit); return self."""
         assert self.returncode == 0, (
             f"host process exited with status {self.returncode}"
             f"{' (signal ' + str(-self.returncode) + ')' if self.returncode < 0 else ''}\n"
@@ -281,20 +275,12 @@ def finite(values) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
-KNOWN_EXIT_SIGNALS = (-6, -11)   # pythonfmu 0.7.0's unload destructor corrupts the heap at exit (SIGABRT/SIGSEGV)
-
-
-def finished(returncode: int, stdout: str) -> bool:
-    """A host script finished: exit status 0, or the known pythonfmu crash at exit after it printed its RESULT."""
-    return returncode == 0 or (returncode in KNOWN_EXIT_SIGNALS and "RESULT " in stdout)
-
-
 def run_json_script(script: str, spec: dict, cwd, timeout: float = 300.0):
     """Run `script` in a fresh interpreter in `cwd` with the JSON `spec` as argv[1]; it prints one line
     'RESULT <json>'. Return (that result, the completed process); fail if the script did not finish."""
     process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
                              text=True, timeout=timeout)
-    assert finished(process.returncode, process.stdout), \
+    assert process.returncode == 0, \
         f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
     lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
     assert lines, f"no result:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"

@@ -2,7 +2,7 @@
 
 The FMU is built once for this module (`python -m fmu_src.build`) into a temporary folder, and every FMU run
 happens in a separate host process (tests/fmu_helpers.py) whose exit status is checked: a crash of the FMU or at
-interpreter exit fails the test instead of killing pytest (EXIT_CRASH_KNOWN: one known crash at exit). The numba
+interpreter exit fails the test instead of killing pytest. The numba
 kernels are cached in a temporary ROTARY_VANE_CACHE_DIR for the module (the user's cache is never touched); a
 warm-up run compiles them once.
 
@@ -69,20 +69,6 @@ def script(template: str, **values) -> str:
     return Template(template).substitute({k: literal(v) for k, v in values.items()})
 
 
-# Known FMU bug (reported): pythonfmu 0.7.0's binary resets, in its ELF destructor finalizePythonInterpreter, a
-# static shared_ptr that the C++ exit handlers have already destroyed: a use after free at process exit (valgrind),
-# which corrupts the heap and kills the host with SIGABRT ("corrupted double-linked list") or SIGSEGV depending on
-# the memory layout. test_fmu_makes_no_invalid_memory_access_in_the_host_up_to_its_exit fails on it (valgrind); the
-# other tests accept such a crash after their script has emitted its result. Set to False with the fix.
-EXIT_CRASH_KNOWN = True
-
-
-def checked(run: H.HostRun) -> H.HostRun:
-    """The host process exited with status 0 (or, while EXIT_CRASH_KNOWN, crashed only after emitting its
-    result)."""
-    return run.check(allow_crash_at_exit=EXIT_CRASH_KNOWN)
-
-
 def assert_no_fatal(statuses, context=""):
     """pythonfmu turns a Python exception into fmi2Fatal; the FMU must never let one through."""
     assert "FATAL" not in statuses and "ERROR" not in statuses, f"{context}: call statuses {statuses}"
@@ -114,7 +100,7 @@ H.emit(out)
 @pytest.fixture(scope="module")
 def short_reference(fmu, env) -> dict:
     """Warm-up and reference: 20 steps of 1 ms at the operating point in a clean host (compiles the kernels)."""
-    run = checked(H.run_host(script(SHORT_RUN, fmu=fmu), env=env))
+    run = H.run_host(script(SHORT_RUN, fmu=fmu), env=env).check()
     out = run.result
     assert out["columns"]["time"][-1] == pytest.approx(0.02)
     return out
@@ -142,7 +128,7 @@ def step_study(fmu, env, short_reference) -> dict:
                         for name, interp, h in cases], env=env)
     results = {}
     for case, run in zip(cases, runs):
-        checked(run)
+        run.check()
         results[case] = run.result
     return results
 
@@ -251,7 +237,7 @@ H.emit({"fmu": fmu_rows, "core": core_rows, "statuses": sorted({H.status_of(c) f
 def test_fmu_outputs_equal_the_core_simulation_advanced_alike(fmu, env, short_reference):
     """The FMU adds no physics: over a ramp at 1 ms steps its shaft work, angle, torque and per-revolution
     input power equal mechanics.Simulation (the bundled copy) advanced with the same speed per step (1e-12)."""
-    run = checked(H.run_host(script(CORE_VS_FMU, fmu=fmu, rows=INPUTS["ramp"], step=1e-3, steps=100), env=env))
+    run = H.run_host(script(CORE_VS_FMU, fmu=fmu, rows=INPUTS["ramp"], step=1e-3, steps=100), env=env).check()
     out = run.result
     assert_no_fatal(out["statuses"])
     for k, (fmu_row, core_row) in enumerate(zip(out["fmu"], out["core"])):
@@ -296,9 +282,9 @@ def test_two_interleaved_instances_equal_their_separate_runs(fmu, env, short_ref
     together, alone_a, alone_b = H.run_hosts([script(INSTANCE_RUN, order=["a", "b"], **common),
                                               script(INSTANCE_RUN, order=["a"], **common),
                                               script(INSTANCE_RUN, order=["b"], **common)], env=env)
-    checked(alone_a)
-    checked(alone_b)
-    checked(together)
+    alone_a.check()
+    alone_b.check()
+    together.check()
     assert_no_fatal(together.result["statuses"])
     assert together.result["rows"]["a"] == alone_a.result["rows"]["a"]
     assert together.result["rows"]["b"] == alone_b.result["rows"]["b"]
@@ -318,7 +304,7 @@ H.emit(results)
 def test_fresh_instances_one_after_another_in_one_process(fmu, env, short_reference):
     """The usual fmpy loop (simulate_fmu three times in one process, a fresh instance each time) gives three
     identical results equal to a run in its own process."""
-    run = checked(H.run_host(script(SEQUENTIAL_RUNS, fmu=fmu), env=env))
+    run = H.run_host(script(SEQUENTIAL_RUNS, fmu=fmu), env=env).check()
     for columns in run.result:
         assert columns == short_reference["columns"]
 
@@ -381,7 +367,7 @@ H.emit(out)
 @pytest.fixture(scope="module")
 def state_run(fmu, env, short_reference, tmp_path_factory):
     state_file = tmp_path_factory.mktemp("state") / "state.bin"
-    run = checked(H.run_host(script(STATE_RUN, fmu=fmu, state_file=state_file), env=env))
+    run = H.run_host(script(STATE_RUN, fmu=fmu, state_file=state_file), env=env).check()
     return run.result, state_file
 
 
@@ -403,7 +389,7 @@ def test_serialized_state_continues_exactly_in_another_process(fmu, env, state_r
     """The serialized state, restored in a new process (into an instance initialized with the same
     parameters), continues exactly as the original process did."""
     out, state_file = state_run
-    run = checked(H.run_host(script(RESTORE_INITIALIZED, fmu=fmu, state_file=state_file), env=env))
+    run = H.run_host(script(RESTORE_INITIALIZED, fmu=fmu, state_file=state_file), env=env).check()
     assert_no_fatal(run.result["statuses"])
     assert run.result["rows"] == out["first"]
 
@@ -414,7 +400,7 @@ def test_serialized_state_restored_by_fmpy_simulate_fmu_in_another_process(fmu, 
     initializing; the result must reach the stop time and equal, output for output, the same simulate_fmu
     continuation run in the original process."""
     out, state_file = state_run
-    run = checked(H.run_host(script(RESTORE_WITH_SIMULATE_FMU, fmu=fmu, state_file=state_file), env=env))
+    run = H.run_host(script(RESTORE_WITH_SIMULATE_FMU, fmu=fmu, state_file=state_file), env=env).check()
     result = run.result
     assert_no_fatal(result["statuses"])
     columns = result["columns"]
@@ -464,7 +450,7 @@ def foreign_host(fmu, paths, modules, extra=""):
 
 
 def check_foreign_host(run, short_reference, context):
-    checked(run)
+    run.check()
     out = run.result
     assert_no_fatal(out["statuses"], context)
     assert out["after"] == out["before"], "the FMU replaced the host's modules"
@@ -543,7 +529,7 @@ def test_two_versions_of_the_fmu_in_one_process_each_run_their_own_code(fmu, env
     """A host that runs another version's FMU and then ours (e.g. two compressors in one system): ours gives
     the results of a clean host, the other one its own (rotor angle twice ours: its rpm factor)."""
     other_fmu = H.build_fmu(tmp_path_factory.mktemp("other_fmu"), project_dir=other_version)
-    run = checked(H.run_host(script(TWO_VERSIONS, fmu=fmu, other_fmu=other_fmu), env=env))
+    run = H.run_host(script(TWO_VERSIONS, fmu=fmu, other_fmu=other_fmu), env=env).check()
     ours, other = run.result["rows"]["ours"], run.result["rows"]["other"]
     # with the other version's kernels in the process the results differ in the last digit (cause not found),
     # which the contact impacts amplify to ~1e-9; the other version's doubled angle shows which code ran
@@ -575,10 +561,10 @@ def test_fresh_process_loads_the_compiled_kernels_from_the_cache(fmu, tmp_path):
     cache, user_cache, numba_cache = tmp_path / "cache", tmp_path / "xdg", tmp_path / "numba_cache_dir"
     env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(cache)}, XDG_CACHE_HOME=str(user_cache),
                              NUMBA_CACHE_DIR=str(numba_cache))
-    first = checked(H.run_host(script(FIRST_STEP, fmu=fmu), env=env)).result
+    first = H.run_host(script(FIRST_STEP, fmu=fmu), env=env).check().result
     compiled = H.cache_listing(cache)
     assert compiled, "the first run wrote no compiled kernels into ROTARY_VANE_CACHE_DIR"
-    second = checked(H.run_host(script(FIRST_STEP, fmu=fmu), env=env)).result
+    second = H.run_host(script(FIRST_STEP, fmu=fmu), env=env).check().result
     print(f"first do_step: cold {first['first_step']:.2f} s, cached {second['first_step']:.3f} s; "
           f"{len(compiled)} cache files")
     assert second["unzipdir"] != first["unzipdir"]
@@ -622,7 +608,7 @@ def test_bad_parameter_is_refused_at_initialization(fmu, env, short_reference, n
     printf format for the importer: % is escaped, fmpy's formatting logger receives the text verbatim."""
     value, shown = BAD_PARAMETERS[name]
     run = H.run_host(script(BAD_PARAMETER, fmu=fmu, name=name, value=value), env=env)
-    checked(run)
+    run.check()
     out = run.result
     by_function = {}
     for call in out["trace"]:
@@ -682,11 +668,6 @@ def invalid_accesses(log: str, markers: tuple[str, ...]) -> list[str]:
     return [r for r in records if r.startswith("Invalid") and any(marker in r for marker in markers)]
 
 
-@pytest.mark.xfail(strict=True, reason="FMU bug (reported): pythonfmu 0.7.0's library destructor "
-                                       "finalizePythonInterpreter resets a static shared_ptr the C++ exit "
-                                       "handlers already destroyed - heap corruption at exit, the host then dies "
-                                       "with SIGABRT/SIGSEGV depending on the memory layout; once fixed, also set "
-                                       "EXIT_CRASH_KNOWN = False")
 def test_fmu_makes_no_invalid_memory_access_in_the_host_up_to_its_exit(fmu, env, short_reference, tmp_path):
     """Under valgrind (deterministic where a crash at exit depends on the memory layout): a host that
     instantiates the FMU, has a parameter refused, gets a step discarded, terminates, frees it and exits makes no
@@ -745,7 +726,7 @@ def bad_input_runs(fmu, env, short_reference) -> dict:
     cases = list(BAD_INPUTS)
     runs = H.run_hosts([script(BAD_INPUT, fmu=fmu, case=BAD_INPUTS[c][0]) for c in cases]
                        + [script(BAD_INPUT, fmu=fmu, case=None)], env=env)
-    return {case: checked(run) for case, run in zip([*cases, "valid"], runs)}
+    return {case: run.check() for case, run in zip([*cases, "valid"], runs)}
 
 
 @pytest.mark.parametrize("case", BAD_INPUTS)
@@ -805,9 +786,9 @@ def test_reset_gives_a_clean_reproducible_rerun(fmu, env, short_reference):
     input is identical to the first run and to a fresh instance in another process; a refused initialization
     is cleared; parameters set before the reset do not leak into the next run."""
     reset_run, fresh = H.run_hosts([script(RESET_RUN, fmu=fmu), script(FRESH_CUSTOM_RUN, fmu=fmu)], env=env)
-    runs = checked(reset_run).result["runs"]
+    runs = reset_run.check().result["runs"]
     assert_no_fatal(reset_run.result["statuses"])
     assert runs["refused"] == H.DISCARD
-    assert runs["custom again"] == runs["custom"] == checked(fresh).result
+    assert runs["custom again"] == runs["custom"] == fresh.check().result
     assert runs["defaults again"] == runs["defaults"]
     assert runs["defaults"] != runs["custom"]
