@@ -158,7 +158,7 @@ def scipy_revolution(sim, t_start: float, y_start: np.ndarray, memory: np.ndarra
     from mechanics.layout import MEM_LOBE_START, OUTPUT_SIZE, STATE_SIZE, WORK_IN
     from mechanics.speed import rotor_motion
 
-    machine, law, table_p = sim.machine, sim.speed_law, sim.pressure_table
+    machine, law, table_p = sim.machine, sim.speed_law, sim.gas
     memory = memory.copy()
     dydt = np.empty(STATE_SIZE)
     out = np.empty(OUTPUT_SIZE)
@@ -203,7 +203,7 @@ def evaluate_call_cost(sim, calls: int = 20000) -> float:
     from mechanics.layout import OUTPUT_SIZE, STATE_SIZE
     y, memory = sim.state.copy(), sim.memory.copy()
     dydt, out = np.empty(STATE_SIZE), np.empty(OUTPUT_SIZE)
-    args = (sim.machine, sim.speed_law, sim.pressure_table, memory, dydt, out)
+    args = (sim.machine, sim.speed_law, sim.gas, memory, dydt, out)
     evaluate(sim.time, y, *args)
     start = time.perf_counter()
     for _ in range(calls):

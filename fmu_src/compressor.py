@@ -29,13 +29,16 @@ END_OF_STEP = {
     "vane_velocity": ("m/s", "vane radial velocity v_r at the end of the step"),
     "vane_acceleration": ("m/s2", "vane radial acceleration a_r at the end of the step"),
     "vane_tilt": ("rad", "vane tilt phi3 - theta at the end of the step"),
+    "vane_tangential_velocity": ("m/s", "vane tangential velocity v_theta (SPEC §3.4) at the end of the step"),
+    "vane_tangential_acceleration": ("m/s2", "vane tangential acceleration a_theta at the end of the step"),
     "leading_chamber_pressure": ("Pa", "leading-chamber pressure at the end of the step"),
     "trailing_chamber_pressure": ("Pa", "trailing-chamber pressure at the end of the step"),
 }
 SOURCE_COLUMN = {
     "shaft_torque": "driving_torque", "vane_displacement": "vane_displacement",
     "vane_velocity": "vane_radial_velocity", "vane_acceleration": "vane_radial_acceleration",
-    "vane_tilt": "vane_tilt", "leading_chamber_pressure": "leading_pressure",
+    "vane_tilt": "vane_tilt", "vane_tangential_velocity": "vane_tangential_velocity",
+    "vane_tangential_acceleration": "vane_tangential_acceleration", "leading_chamber_pressure": "leading_pressure",
     "trailing_chamber_pressure": "trailing_pressure",
     **{f"contact_force_{k}": f"normal_force_{k}" for k in range(1, 7)},
 }
@@ -46,6 +49,20 @@ PER_REVOLUTION = {
     "damping_power": ("W", "mean contact-damping power over the last completed revolution"),
     "mechanical_efficiency": ("1", "output power / input power over the last completed revolution"),
     "max_contact_force": ("N", "largest normal force of any region over the last completed revolution"),
+}
+# per-revolution figures of the real-gas chambers (pressure_model real_gas; 0 with the pressure tables)
+PER_REVOLUTION_GAS = {
+    "suction_mass_flow": ("kg/s", "mean net mass flow drawn from the suction side over the last completed "
+                                  "revolution (real_gas)"),
+    "discharge_mass_flow": ("kg/s", "mean mass flow through the discharge valve over the last completed "
+                                    "revolution (real_gas)"),
+    "discharge_temperature": ("K", "mixed temperature of the gas discharged over the last completed revolution, "
+                                   "at discharge pressure (real_gas)"),
+    "indicated_power": ("W", "mean p-V power on the chambers over the last completed revolution (real_gas)"),
+    "volumetric_efficiency": ("1", "delivered mass / (suction density x lobe volume x lobes) per revolution "
+                                   "(real_gas)"),
+    "isentropic_efficiency": ("1", "discharge mass flow x (h_2s - h_1) / input power over the last completed "
+                                   "revolution (real_gas)"),
 }
 MAX_SHAFT_SPEED = 30000.0             # rpm: far above any vane compressor; beyond it the input is refused
 # FMU-only parameters (the physics parameters come from mechanics.parameters)
@@ -87,10 +104,10 @@ class CompressorSlave(GuardedSlave):
             description="true: the speed moves linearly from its last value to the input over each step "
                         "(continuous speed); false: the input is held over the step"))
         self.outputs = dict.fromkeys([*END_OF_STEP, "shaft_torque_mean", "shaft_work", "shaft_angle",
-                                      *PER_REVOLUTION], 0.0)
+                                      *PER_REVOLUTION, *PER_REVOLUTION_GAS], 0.0)
         self.contact_mode = 0
         self.contact_mode_count = 0
-        for name, (unit, text) in {**END_OF_STEP, **PER_REVOLUTION}.items():
+        for name, (unit, text) in {**END_OF_STEP, **PER_REVOLUTION, **PER_REVOLUTION_GAS}.items():
             self._register_output(name, unit, text)
         self._register_output("shaft_torque_mean", "N.m", "shaft work over the last step / angle turned in it "
                                                           "(the instantaneous torque if the rotor stood still)")
@@ -155,6 +172,10 @@ class CompressorSlave(GuardedSlave):
                          "mechanical_efficiency"):
                 values[name] = float(getattr(last, name))
             values["max_contact_force"] = float(max(last.max_normal_force))
+            if self.simulation.gas_reference is not None:
+                figures = self.simulation.gas_reference.figures(last)
+                for name in PER_REVOLUTION_GAS:
+                    values[name] = float(figures[name])
         self.contact_mode = int(row[OUTPUT_INDEX["contact_mode"]])
         self.contact_mode_count = len(self.monitor.distinct_modes)
 

@@ -114,6 +114,9 @@ def declared_parameter(name, metadata):
     if "choices" in metadata:
         return String(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                       initial=Fmi2Initial.exact, description=f"{description} (one of {', '.join(metadata['choices'])})")
+    if metadata.get("fluid"):
+        return String(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                      initial=Fmi2Initial.exact, description=description)
     if metadata["integer"]:
         return IntegerVariable(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                                initial=Fmi2Initial.exact, description=description, minimum=metadata["min"],

@@ -10,16 +10,21 @@ from numba import njit
 
 from .contact import (elastic_force, friction_coefficient_effective, normal_force, slot_bottom_contact,
                       slot_mouth_contact, tip_contact)
+from .chambers import chamber_volume_rates, chamber_volumes
+from .gas_chambers import chamber_gas_derivatives, chamber_properties, switch_chambers
 from .gas_loads import gap_moment, mouth_gap_moment, rotor_gas_moment, stator_gas_moment, vane_gas_load
-from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT, MEM_LOBE_START,
-                     MEM_ONSET_VELOCITY, O_ACCELERATION, O_ANGLE, O_CANDIDATE, O_CLOSEST_OFFSET, O_CONTACT_ANGLE,
+from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_STATE_INVALID, LEADING_DENSITY, LEADING_TEMPERATURE, MASS_SUCTION,
+                     MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT, MEM_LOBE_START, MEM_ONSET_VELOCITY, O_ACCELERATION, O_ANGLE,
+                     O_CANDIDATE, O_CHAMBER_ENERGY, O_CHAMBER_MASS, O_CLOSEST_OFFSET, O_CONTACT_ANGLE,
                      O_CONTACT_ENERGY, O_DAMPING_POWER, O_DISPLACEMENT, O_DRIVING_TORQUE, O_FRICTION_FORCE,
-                     O_FRICTION_POWER, O_INPUT_POWER, O_KINETIC_ENERGY, O_LEADING_PRESSURE, O_LOBE_COUNT, O_MODE,
-                     O_NORMAL_FORCE, O_OUTPUT_POWER, O_PENETRATION, O_PENETRATION_RATE, O_RADIAL_ACCELERATION,
-                     O_RADIAL_VELOCITY, O_ROTOR_FORCE, O_SPEED, O_STATOR_FORCE, O_STATOR_GAS_MOMENT,
-                     O_STATOR_MOMENT, O_GAP_MOMENT, O_TANGENTIAL_ACCELERATION, O_TANGENTIAL_VELOCITY, O_TILT, O_TIME,
-                     O_TRAILING_PRESSURE, O_WORK, TIP_MEMORY_SLOT, TIP_ON_FLAT_FACE, VANE_BOTTOMED, VX, VY, WORK_IN,
-                     X, Y)
+                     O_FRICTION_POWER, O_GAP_MOMENT, O_INPUT_POWER, O_KINETIC_ENERGY, O_LEADING_PRESSURE,
+                     O_LEADING_TEMPERATURE, O_LEADING_VOLUME, O_LOBE_COUNT, O_MASS_SUCTION, O_MODE, O_NORMAL_FORCE,
+                     O_OUTPUT_POWER, O_PENETRATION, O_PENETRATION_RATE, O_RADIAL_ACCELERATION, O_RADIAL_VELOCITY,
+                     O_ROTOR_FORCE, O_SPEED, O_STATOR_FORCE, O_STATOR_GAS_MOMENT, O_STATOR_MOMENT,
+                     O_SUCTION_MASS_FLOW, O_TANGENTIAL_ACCELERATION, O_TANGENTIAL_VELOCITY, O_TILT, O_TIME,
+                     O_TRAILING_PRESSURE, O_WORK, TIP_MEMORY_SLOT, TIP_ON_FLAT_FACE, TRAILING_DENSITY,
+                     TRAILING_TEMPERATURE, VANE_BOTTOMED, VX, VY, WORK_IN, X, Y)
+from .machine import REAL_GAS_MODEL
 from .speed import rotor_motion
 
 
@@ -38,11 +43,11 @@ def leading_pressure_from_table(phase, table, lobes):
 
 
 @njit(cache=True)
-def chamber_pressures(theta, m, pressure_table, memory):
-    """(p_L, p_T, p_b): the pressure source of SPEC §6.1. Level 0 and 0.5 read a p_L(phi) table;
+def table_pressures(theta, m, gas, memory):
+    """(p_L, p_T, p_b): the pressure tables of SPEC §6.1 (Level 0 and 0.5) read a p_L(phi) table;
     the trailing chamber is at suction and the back chamber at discharge pressure."""
     phase = theta - memory[MEM_LOBE_START]
-    return (leading_pressure_from_table(phase, pressure_table, m.lobes), m.suction_pressure,
+    return (leading_pressure_from_table(phase, gas.pressure_table, m.lobes), m.suction_pressure,
             m.discharge_pressure)
 
 
@@ -77,7 +82,7 @@ def _mouth_level_and_junction_radius(side, gx, gy, tip_x, tip_y, exi_x, exi_y, e
 
 
 @njit(cache=True)
-def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True):
+def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
     """Right-hand side f(t, y) and, if `report`, the output row; returns a status code (0 = fine). SPEC §8.1b:
 
     Intermediate integrator stages pass report=False and skip the quantities that are only reported.
@@ -196,7 +201,17 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True)
             moment_stator += reaction_moment
 
     # gas loads (SPEC §6.2)
-    leading_pressure, trailing_pressure, back_pressure = chamber_pressures(theta, m, pressure_table, memory)
+    real_gas = m.pressure_model == REAL_GAS_MODEL
+    leading = trailing = (0.0, 0.0, 0.0, 0.0, 0)          # (p, h, c_v, dp/dT, status), Level 1 only
+    volumes = (0.0, 0.0)
+    flows = (0.0, 0.0, 0.0, 0.0)
+    if real_gas:
+        leading, trailing = chamber_properties(y, gas.properties)
+        if leading[4] != 0 or trailing[4] != 0:
+            status = GAS_STATE_INVALID
+        leading_pressure, trailing_pressure, back_pressure = leading[0], trailing[0], m.discharge_pressure
+    else:
+        leading_pressure, trailing_pressure, back_pressure = table_pressures(theta, m, gas, memory)
     xi_mouth_leading, junction_leading = _mouth_level_and_junction_radius(1.0, gx, gy, tip_x, tip_y, exi_x, exi_y,
                                                                          er_x, er_y, m)
     xi_mouth_trailing, junction_trailing = _mouth_level_and_junction_radius(-1.0, gx, gy, tip_x, tip_y, exi_x,
@@ -230,6 +245,14 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True)
     dydt[WORK_IN + 1] = -gas_power
     dydt[WORK_IN + 2] = friction_power
     dydt[WORK_IN + 3] = damping_power
+    if real_gas:
+        # geometric volumes and their exact rates (SPEC §7.2): the rates are the unit-pressure power on the
+        # wetted walls plus the sweep of the load-free gaps (tip and slot-mouth gaps)
+        volumes = chamber_volumes(gx, gy, phi, theta, tip[7], memory[MEM_LOBE_START], m)
+        rates = chamber_volume_rates(gx, gy, phi, vx, vy, phi_dot, theta, omega, tip[7], m)
+        flows = chamber_gas_derivatives(y, leading, trailing, (volumes[0] + m.dead_volume,
+                                                               volumes[1] + m.dead_volume),
+                                        (rates[0], rates[1]), theta - memory[MEM_LOBE_START], tip[0], m, dydt)
 
     if not report:
         return status
@@ -283,4 +306,49 @@ def evaluate(t, y, m, speed_law, pressure_table, memory, dydt, out, report=True)
     out[O_LOBE_COUNT] = memory[MEM_LOBE_COUNT]
     for k in range(4):
         out[O_WORK + k] = y[WORK_IN + k]
+    if real_gas:
+        out[O_LEADING_TEMPERATURE] = y[LEADING_TEMPERATURE]
+        out[O_LEADING_TEMPERATURE + 1] = y[TRAILING_TEMPERATURE]
+        volume_leading = volumes[0] + m.dead_volume
+        volume_trailing = volumes[1] + m.dead_volume
+        out[O_LEADING_VOLUME] = volume_leading
+        out[O_LEADING_VOLUME + 1] = volume_trailing
+        mass_leading = y[LEADING_DENSITY] * volume_leading
+        mass_trailing = y[TRAILING_DENSITY] * volume_trailing
+        out[O_CHAMBER_MASS] = mass_leading + mass_trailing
+        out[O_CHAMBER_ENERGY] = (mass_leading * (leading[1] - leading[0] / y[LEADING_DENSITY])
+                                 + mass_trailing * (trailing[1] - trailing[0] / y[TRAILING_DENSITY]))
+        for k in range(4):
+            out[O_SUCTION_MASS_FLOW + k] = flows[k]
+        for k in range(5):
+            out[O_MASS_SUCTION + k] = y[MASS_SUCTION + k]
+    else:
+        for k in range(O_LEADING_TEMPERATURE, O_MASS_SUCTION + 5):
+            out[k] = math.nan
     return status
+
+
+@njit(cache=True)
+def pose_chamber_volumes(t, y, memory, m, speed_law):
+    """(V_L, V_T) with the dead volume, from the vane pose in y and the current lobe (SPEC §7.2)."""
+    theta = rotor_motion(t, speed_law)[0]
+    exi_x = math.cos(y[ANGLE])
+    exi_y = math.sin(y[ANGLE])
+    tip_x = y[X] + m.tip_centre * exi_x
+    tip_y = y[Y] + m.tip_centre * exi_y
+    tip = tip_contact(tip_x, tip_y, exi_x, exi_y, memory[MEM_CLOSEST_OFFSET], m)
+    volumes = chamber_volumes(y[X], y[Y], y[ANGLE], theta, tip[7], memory[MEM_LOBE_START], m)
+    return volumes[0] + m.dead_volume, volumes[1] + m.dead_volume
+
+
+@njit(cache=True)
+def cross_valley(t, y, memory, m, speed_law, gas):
+    """The vane crossed the end valley of its lobe: the next lobe becomes the active one, and under Level 1 the
+    chambers are switched (gas_chambers.switch_chambers). Returns False if a chamber state left the table."""
+    real_gas = m.pressure_model == REAL_GAS_MODEL
+    old_volumes = pose_chamber_volumes(t, y, memory, m, speed_law) if real_gas else (0.0, 0.0)
+    memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
+    memory[MEM_LOBE_COUNT] += 1.0
+    if not real_gas:
+        return True
+    return switch_chambers(y, old_volumes, pose_chamber_volumes(t, y, memory, m, speed_law), gas.properties, m)

@@ -4,8 +4,6 @@ All functions are pure. The vane is loaded on its exposed leading/trailing flat 
 (split at the contact angle psi_c, never clipped) and on its bottom face (back-chamber pressure); the rotor on the
 slot wall between a recessed tip junction and the mouth; the stator on the active lobe's wall.
 """
-import math
-
 from numba import njit
 
 

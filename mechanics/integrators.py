@@ -11,11 +11,12 @@ import math
 import numpy as np
 from numba import njit
 
-from .dynamics import evaluate
-from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE,
-                     MEM_ONSET_VELOCITY, NOT_FINITE, O_CLOSEST_OFFSET, O_CONTACT_ANGLE, O_MODE, O_PENETRATION,
-                     O_PENETRATION_RATE, OUTPUT_SIZE, REACHED_END, RECORD_FULL, REGIONS, STEP_TOO_SMALL,
-                     TIP_MEMORY_SLOT, VX, VY, WORK_IN, X, Y)
+from .dynamics import cross_valley, evaluate
+from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_STATE_INVALID, LEADING_DENSITY, LEADING_TEMPERATURE, MASS_DISCHARGE,
+                     MASS_SUCTION, MEM_CLOSEST_OFFSET, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE,
+                     O_CLOSEST_OFFSET, O_CONTACT_ANGLE, O_MODE, O_PENETRATION, O_PENETRATION_RATE, OUTPUT_SIZE,
+                     REACHED_END, RECORD_FULL, REGIONS, STEP_TOO_SMALL, TIP_MEMORY_SLOT, TRAILING_DENSITY,
+                     TRAILING_TEMPERATURE, VX, VY, X, Y)
 from .speed import ramp_end_time, rotor_motion, time_of_angle
 
 # counters shared with Python
@@ -32,7 +33,7 @@ NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
 
 @njit(cache=True)
 def _tolerance(i, value, m):
-    """atol_i + rtol |y_i| with the absolute tolerances of SPEC §8.2."""
+    """atol_i + rtol |y_i| with the absolute tolerances of SPEC §8.2 (and of the Level 1 gas states)."""
     if i == X or i == Y:
         atol = m.atol_position
     elif i == ANGLE:
@@ -41,6 +42,12 @@ def _tolerance(i, value, m):
         atol = m.atol_velocity
     elif i == ANGULAR_VELOCITY:
         atol = m.atol_angular_velocity
+    elif i == LEADING_TEMPERATURE or i == TRAILING_TEMPERATURE:
+        atol = m.atol_temperature
+    elif i == LEADING_DENSITY or i == TRAILING_DENSITY:
+        atol = m.atol_density
+    elif i == MASS_SUCTION or i == MASS_DISCHARGE:
+        atol = m.atol_mass
     else:
         atol = m.atol_work
     return atol + m.relative_tolerance * abs(value)
@@ -128,12 +135,6 @@ def _accept(out, memory, m):
 
 
 @njit(cache=True)
-def _cross_valley(memory, m):
-    memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
-    memory[MEM_LOBE_COUNT] += 1.0
-
-
-@njit(cache=True)
 def _combine(target, y, h, c1, k1, c2, k2, c3, k3, c4, k4, c5, k5, c6, k6):
     """target = y + h (c1 k1 + ... + c6 k6), element by element (no temporaries in the hot loop)."""
     for i in range(y.size):
@@ -152,7 +153,7 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 
 
 @njit(cache=True)
-def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record, counters):
+def advance_dopri5(t, y, t_end, m, law, gas, memory, control, record, counters):
     """Adaptive Dormand-Prince 5(4) with FSAL, Hairer's RMS error norm and PI step control (DOPRI5):
 
     h_new = h min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)),  beta = 0.04, after a rejection no growth.
@@ -173,7 +174,7 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
     zero = np.zeros(n)
     out = np.empty(OUTPUT_SIZE)
     rows = 0
-    evaluate(t, y, m, law, pressure_table, memory, k1, out)
+    evaluate(t, y, m, law, gas, memory, k1, out)
     counters[EVALUATIONS] += 1
     h = control[CONTROL_STEP]
     previous_error = control[CONTROL_PREVIOUS_ERROR] if control[CONTROL_PREVIOUS_ERROR] > 0.0 else 1e-4
@@ -187,17 +188,17 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
         h = min(h, m.max_step)
         step, event = _clip_to_events(t, h, t_end, law, memory, m)
         _combine(stage, y, step, A21, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-        failure = evaluate(t + step / 5.0, stage, m, law, pressure_table, memory, k2, out, False)
+        failure = evaluate(t + step / 5.0, stage, m, law, gas, memory, k2, out, False)
         _combine(stage, y, step, A31, k1, A32, k2, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-        failure |= evaluate(t + 3.0 * step / 10.0, stage, m, law, pressure_table, memory, k3, out, False)
+        failure |= evaluate(t + 3.0 * step / 10.0, stage, m, law, gas, memory, k3, out, False)
         _combine(stage, y, step, A41, k1, A42, k2, A43, k3, 0.0, k1, 0.0, k1, 0.0, k1)
-        failure |= evaluate(t + 4.0 * step / 5.0, stage, m, law, pressure_table, memory, k4, out, False)
+        failure |= evaluate(t + 4.0 * step / 5.0, stage, m, law, gas, memory, k4, out, False)
         _combine(stage, y, step, A51, k1, A52, k2, A53, k3, A54, k4, 0.0, k1, 0.0, k1)
-        failure |= evaluate(t + 8.0 * step / 9.0, stage, m, law, pressure_table, memory, k5, out, False)
+        failure |= evaluate(t + 8.0 * step / 9.0, stage, m, law, gas, memory, k5, out, False)
         _combine(stage, y, step, A61, k1, A62, k2, A63, k3, A64, k4, A65, k5, 0.0, k1)
-        failure |= evaluate(t + step, stage, m, law, pressure_table, memory, k6, out, False)
+        failure |= evaluate(t + step, stage, m, law, gas, memory, k6, out, False)
         _combine(y_new, y, step, B1, k1, B3, k3, B4, k4, B5, k5, B6, k6, 0.0, k1)
-        failure |= evaluate(t + step, y_new, m, law, pressure_table, memory, k7, out)
+        failure |= evaluate(t + step, y_new, m, law, gas, memory, k7, out)
         counters[EVALUATIONS] += 6
         _combine(error, zero, step, E1, k1, E3, k3, E4, k4, E5, k5, E6, k6, E7, k7)
         finite = _all_finite(y_new) and _all_finite(error)
@@ -222,9 +223,11 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
         if _accept(out, memory, m):
             counters[MODE_CHANGES] += 1
         if event == VALLEY_EVENT:
-            _cross_valley(memory, m)
+            if not cross_valley(t, y, memory, m, law, gas):
+                control[CONTROL_STEP] = h
+                return GAS_STATE_INVALID, t, rows
             counters[VALLEY_CROSSINGS] += 1
-            evaluate(t, y, m, law, pressure_table, memory, k1, out)
+            evaluate(t, y, m, law, gas, memory, k1, out)
             counters[EVALUATIONS] += 1
         err = max(err, 1e-10)
         factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * previous_error ** PI_BETA))
@@ -239,20 +242,20 @@ def advance_dopri5(t, y, t_end, m, law, pressure_table, memory, control, record,
 
 
 @njit(cache=True)
-def _rk4_step(t, y, h, k1, m, law, pressure_table, memory, k2, k3, k4, stage, y_new, out):
+def _rk4_step(t, y, h, k1, m, law, gas, memory, k2, k3, k4, stage, y_new, out):
     """Classical RK4 (thesis Table 4.1): y+ = y + h (k1 + 2 k2 + 2 k3 + k4)/6, k1 given."""
     _combine(stage, y, 0.5 * h, 1.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-    failure = evaluate(t + 0.5 * h, stage, m, law, pressure_table, memory, k2, out, False)
+    failure = evaluate(t + 0.5 * h, stage, m, law, gas, memory, k2, out, False)
     _combine(stage, y, 0.5 * h, 1.0, k2, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-    failure |= evaluate(t + 0.5 * h, stage, m, law, pressure_table, memory, k3, out, False)
+    failure |= evaluate(t + 0.5 * h, stage, m, law, gas, memory, k3, out, False)
     _combine(stage, y, h, 1.0, k3, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-    failure |= evaluate(t + h, stage, m, law, pressure_table, memory, k4, out, False)
+    failure |= evaluate(t + h, stage, m, law, gas, memory, k4, out, False)
     _combine(y_new, y, h / 6.0, 1.0, k1, 2.0, k2, 2.0, k3, 1.0, k4, 0.0, k1, 0.0, k1)
     return failure
 
 
 @njit(cache=True)
-def advance_abm4(t, y, t_end, m, law, pressure_table, memory, control, history, record, counters):
+def advance_abm4(t, y, t_end, m, law, gas, memory, control, history, record, counters):
     """ABM4 PECE with RK4 start, Milne error estimate and step halving/doubling (SPEC §8.2).
 
     AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
@@ -276,7 +279,7 @@ def advance_abm4(t, y, t_end, m, law, pressure_table, memory, control, history, 
     valid = int(control[CONTROL_HISTORY])
     small_errors = int(control[CONTROL_SMALL_ERRORS])
     if valid < 1:
-        evaluate(t, y, m, law, pressure_table, memory, history[0], out)
+        evaluate(t, y, m, law, gas, memory, history[0], out)
         counters[EVALUATIONS] += 1
         valid = 1
     while t < t_end:
@@ -287,18 +290,18 @@ def advance_abm4(t, y, t_end, m, law, pressure_table, memory, control, history, 
         if multistep:
             _combine(y_pred, y, h / 24.0, 55.0, history[0], -59.0, history[1], 37.0, history[2], -9.0, history[3],
                      0.0, f_new, 0.0, f_new)
-            failure = evaluate(t + h, y_pred, m, law, pressure_table, memory, f_pred, out, False)
+            failure = evaluate(t + h, y_pred, m, law, gas, memory, f_pred, out, False)
             _combine(y_new, y, h / 24.0, 9.0, f_pred, 19.0, history[0], -5.0, history[1], 1.0, history[2],
                      0.0, f_new, 0.0, f_new)
             counters[EVALUATIONS] += 1
             for i in range(n):
                 error[i] = 19.0 / 270.0 * (y_new[i] - y_pred[i])
         else:
-            failure = _rk4_step(t, y, step, history[0], m, law, pressure_table, memory, k2, k3, k4, stage, y_new,
+            failure = _rk4_step(t, y, step, history[0], m, law, gas, memory, k2, k3, k4, stage, y_new,
                                 out)
             counters[EVALUATIONS] += 3
             error[:] = 0.0
-        failure |= evaluate(t + step, y_new, m, law, pressure_table, memory, f_new, out)
+        failure |= evaluate(t + step, y_new, m, law, gas, memory, f_new, out)
         counters[EVALUATIONS] += 1
         finite = _all_finite(y_new) and _all_finite(f_new)
         err = _error_norm(y_new, error, m) if finite else math.inf
@@ -329,9 +332,11 @@ def advance_abm4(t, y, t_end, m, law, pressure_table, memory, control, history, 
         if mode_changed:
             counters[MODE_CHANGES] += 1
         if event == VALLEY_EVENT:
-            _cross_valley(memory, m)
+            if not cross_valley(t, y, memory, m, law, gas):
+                control[CONTROL_STEP] = h
+                return GAS_STATE_INVALID, t, rows
             counters[VALLEY_CROSSINGS] += 1
-            evaluate(t, y, m, law, pressure_table, memory, history[0], out)
+            evaluate(t, y, m, law, gas, memory, history[0], out)
             counters[EVALUATIONS] += 1
         if mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT:
             valid = 1

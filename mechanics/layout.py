@@ -8,6 +8,13 @@
 # state vector
 X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING = range(10)
 STATE_SIZE = 10
+# Level 1 (real gas) adds the chamber states (T, rho) of the leading and trailing chambers and the cumulative
+# flows across the chambers' boundary (SPEC §7.2-§7.3): net mass and energy from the suction side (ports, valley
+# leak, chambers filled from or vented to the idle lobes), mass and enthalpy out through the discharge valve, and
+# the compression work -sum p dV on the two chambers.
+(LEADING_TEMPERATURE, LEADING_DENSITY, TRAILING_TEMPERATURE, TRAILING_DENSITY, MASS_SUCTION, MASS_DISCHARGE,
+ ENERGY_SUCTION, ENERGY_DISCHARGE, WORK_CHAMBERS) = range(STATE_SIZE, STATE_SIZE + 9)
+REAL_GAS_STATE_SIZE = STATE_SIZE + 9
 
 # memory
 MEM_CLOSEST_OFFSET = 0         # warm start: u* minus the polar angle of the tip centre, last accepted step
@@ -34,6 +41,9 @@ OUTPUT_NAMES = (
     "leading_pressure", "trailing_pressure", "kinetic_energy", "contact_energy",
     "contact_angle", "closest_parameter_offset", "lobe_count",
     "work_in", "work_out", "work_friction", "work_damping",
+    "leading_temperature", "trailing_temperature", "leading_volume", "trailing_volume", "chamber_mass",
+    "chamber_internal_energy", "suction_mass_flow", "discharge_mass_flow", "tip_leak_mass_flow", "valley_leak_mass_flow",
+    "mass_suction", "mass_discharge", "energy_suction", "energy_discharge", "work_chambers",
 )
 OUTPUT_INDEX = {name: i for i, name in enumerate(OUTPUT_NAMES)}
 OUTPUT_SIZE = len(OUTPUT_NAMES)
@@ -64,12 +74,20 @@ O_CONTACT_ANGLE = OUTPUT_INDEX["contact_angle"]
 O_CLOSEST_OFFSET = OUTPUT_INDEX["closest_parameter_offset"]
 O_LOBE_COUNT = OUTPUT_INDEX["lobe_count"]
 O_WORK = OUTPUT_INDEX["work_in"]
+O_LEADING_TEMPERATURE = OUTPUT_INDEX["leading_temperature"]
+O_LEADING_VOLUME = OUTPUT_INDEX["leading_volume"]
+O_CHAMBER_MASS = OUTPUT_INDEX["chamber_mass"]
+O_CHAMBER_ENERGY = OUTPUT_INDEX["chamber_internal_energy"]
+O_SUCTION_MASS_FLOW = OUTPUT_INDEX["suction_mass_flow"]
+O_MASS_SUCTION = OUTPUT_INDEX["mass_suction"]
+REAL_GAS_OUTPUT_NAMES = OUTPUT_NAMES[O_LEADING_TEMPERATURE:]     # NaN (not modelled) under the pressure tables
 
 # kernel status codes (0 = reached the end time)
-REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, VANE_BOTTOMED = range(6)
+REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, VANE_BOTTOMED, GAS_STATE_INVALID = range(7)
 STATUS_TEXT = {
     STEP_TOO_SMALL: "the step size fell below min_step",
     NOT_FINITE: "the state became non-finite",
     TIP_ON_FLAT_FACE: "the stator touches a flat face of the vane (|psi_c| > pi/2, SPEC §2.6)",
     VANE_BOTTOMED: "the vane reached the slot bottom (SPEC §4.3)",
+    GAS_STATE_INVALID: "a chamber state left the fluid property table (two-phase dome or outside its envelope)",
 }

@@ -6,6 +6,7 @@ their integer codes. It is derived from validated `CompressorParameters` and nev
 import math
 from typing import NamedTuple
 
+from .chambers import stator_lobe_integral
 from .displacement import LAW_CODES
 from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
 
@@ -85,14 +86,50 @@ class Machine(NamedTuple):
     min_step: float
     max_step: float
     max_onset_penetration: float
+    # chamber gas (SPEC §7; Level 1 uses the fluid's values, the tables the ideal-gas parameters)
+    pressure_model: float
+    suction_temperature: float
+    suction_density: float
+    suction_enthalpy: float
+    dead_volume: float
+    suction_close_angle: float
+    suction_port_area: float
+    suction_port_coefficient: float
+    discharge_port_area: float
+    discharge_port_coefficient: float
+    leak_coefficient: float
+    nozzle_heat_capacity_ratio: float
+    nozzle_gas_constant: float
+    atol_temperature: float
+    atol_density: float
+    atol_mass: float
+    stator_lobe_integral: float   # int (1/2 r^2 + d N) du over a lobe (mechanics.chambers), m^2
 
 
-def machine_from_parameters(p: CompressorParameters) -> Machine:
-    """Derive the kernel constants from validated parameters (SPEC §2.1, §2.2, §5.2, §8.2)."""
+class SuctionGas(NamedTuple):
+    """What the kernels need of the working fluid: suction density and enthalpy (consistent with the property
+    table under Level 1), and the ideal-gas k and R of the nozzle law (SPEC §7.4)."""
+    density: float
+    enthalpy: float
+    heat_capacity_ratio: float
+    gas_constant: float
+
+
+def ideal_suction_gas(p: CompressorParameters) -> SuctionGas:
+    """The Level 0.5 ideal gas (k, R parameters) at the suction state; enthalpy c_p T_s."""
+    return SuctionGas(p.suction_pressure / (p.gas_constant * p.suction_temperature),
+                      p.heat_capacity_ratio * p.gas_constant / (p.heat_capacity_ratio - 1.0) * p.suction_temperature,
+                      p.heat_capacity_ratio, p.gas_constant)
+
+
+def machine_from_parameters(p: CompressorParameters, gas: SuctionGas | None = None) -> Machine:
+    """Derive the kernel constants from validated parameters (SPEC §2.1, §2.2, §5.2, §7, §8.2); `gas` defaults to
+    the ideal gas of the parameters."""
+    gas = gas or ideal_suction_gas(p)
     vane = vane_mass_properties(p.vane_thickness, p.vane_length, p.axial_length, p.vane_density)
     tip_centre = -vane.centre_of_mass
     scale = p.tolerance_scale
-    return Machine(
+    machine = Machine(
         lobes=float(p.lobes), law=float(LAW_CODES[p.displacement_law]), stroke=p.stroke,
         bottom_dwell=p.bottom_dwell, top_dwell=p.top_dwell, rotor_radius=p.rotor_radius,
         base_radius=p.base_radius, tip_radius=p.tip_radius, half_thickness=0.5 * p.vane_thickness,
@@ -110,8 +147,18 @@ def machine_from_parameters(p: CompressorParameters) -> Machine:
         suction_pressure=p.suction_pressure, discharge_pressure=p.discharge_pressure,
         relative_tolerance=p.relative_tolerance, atol_position=1e-9 * scale, atol_angle=1e-8 * scale,
         atol_velocity=1e-6 * scale, atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
-        min_step=p.min_step, max_step=p.max_step, max_onset_penetration=p.max_onset_penetration)
+        min_step=p.min_step, max_step=p.max_step, max_onset_penetration=p.max_onset_penetration,
+        pressure_model=float(PRESSURE_MODELS.index(p.pressure_model)), suction_temperature=p.suction_temperature,
+        suction_density=gas.density, suction_enthalpy=gas.enthalpy, dead_volume=p.dead_volume,
+        suction_close_angle=p.suction_close_angle, suction_port_area=p.suction_port_area,
+        suction_port_coefficient=p.suction_port_coefficient, discharge_port_area=p.discharge_port_area,
+        discharge_port_coefficient=p.discharge_port_coefficient, leak_coefficient=p.leak_coefficient,
+        nozzle_heat_capacity_ratio=gas.heat_capacity_ratio, nozzle_gas_constant=gas.gas_constant,
+        atol_temperature=1e-4 * scale, atol_density=1e-6 * scale, atol_mass=1e-12 * scale,
+        stator_lobe_integral=math.nan)
+    return machine._replace(stator_lobe_integral=stator_lobe_integral(machine))
 
 
 INTEGRATOR_CODES = {name: i for i, name in enumerate(INTEGRATORS)}
 PRESSURE_MODEL_CODES = {name: i for i, name in enumerate(PRESSURE_MODELS)}
+REAL_GAS_MODEL = float(PRESSURE_MODEL_CODES["real_gas"])

@@ -13,13 +13,15 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
+from thermo.fluid import Fluid, check_operating_point
+
 from .geometry import check_stator_regularity
 
 DISPLACEMENT_LAWS = ("harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
 INTEGRATORS = ("dopri5", "abm4")
 STIFFNESS_MODELS = ("hertz_point", "johnson_line")
 FRICTION_MODELS = ("threlfall", "ambrosio")
-PRESSURE_MODELS = ("polytropic", "ideal_gas_table")
+PRESSURE_MODELS = ("polytropic", "ideal_gas_table", "real_gas")
 
 
 def _number(default, unit, minimum, maximum, description, *, exclusive_minimum=False, integer=False):
@@ -27,6 +29,11 @@ def _number(default, unit, minimum, maximum, description, *, exclusive_minimum=F
     return field(default=default, metadata=dict(
         unit=unit, min=minimum, max=maximum, exclusive_min=exclusive_minimum, integer=integer,
         description=description))
+
+
+def _fluid(default, description):
+    """A CoolProp fluid name (a free string, checked against CoolProp's list)."""
+    return field(default=default, metadata=dict(unit="", fluid=True, description=description))
 
 
 def _choice(default, choices, description):
@@ -72,7 +79,9 @@ class CompressorParameters:
                                             "velocity v_1 of full sliding friction (ambrosio law only)")
     # gas (SPEC §6-§7)
     pressure_model: str = _choice("ideal_gas_table", PRESSURE_MODELS,
-                                  "chamber pressure source: Level 0 polytropic or Level 0.5 ideal-gas table")
+                                  "chamber gas: Level 0 polytropic table, Level 0.5 ideal-gas table, or Level 1 "
+                                  "real-gas chambers coupled to the vane (SPEC §6.1, §7)")
+    fluid: str = _fluid("R134a", "working fluid, any pure or pseudo-pure CoolProp fluid name (real_gas only)")
     suction_pressure: float = _number(0.2928e6, "Pa", 1e3, 20e6, "suction pressure p_s", exclusive_minimum=True)
     suction_temperature: float = _number(283.15, "K", 150.0, 600.0, "suction temperature T_s")
     discharge_pressure: float = _number(1.3179e6, "Pa", 1e3, 40e6, "discharge (and back-chamber) pressure p_d")
@@ -81,6 +90,10 @@ class CompressorParameters:
                                          "lobe phase phi_sc at which the leading chamber closes to suction")
     dead_volume: float = _number(0.05e-6, "m3", 0.0, 1e-3, "dead volume V_dead of the leading chamber",
                                  exclusive_minimum=True)
+    suction_port_area: float = _number(30e-6, "m2", 0.0, 1e-2, "suction port area A_s (real_gas only; the port "
+                                       "spans lobe phases [0, suction_close_angle])", exclusive_minimum=True)
+    suction_port_coefficient: float = _number(0.7, "1", 0.0, 1.0, "discharge coefficient of the suction port",
+                                              exclusive_minimum=True)
     discharge_port_area: float = _number(20e-6, "m2", 0.0, 1e-2, "discharge port area A_d", exclusive_minimum=True)
     discharge_port_coefficient: float = _number(0.7, "1", 0.0, 1.0, "discharge coefficient of the discharge port",
                                                 exclusive_minimum=True)
@@ -104,7 +117,7 @@ class CompressorParameters:
     def __post_init__(self):
         validate(self)
         for name, _, meta in declarations():          # numpy scalars in, plain Python numbers stored
-            if "choices" not in meta:
+            if is_numeric(meta):
                 value = getattr(self, name)
                 object.__setattr__(self, name, int(value) if meta["integer"] else float(value))
 
@@ -139,6 +152,11 @@ class CompressorParameters:
         return self.tip_radius + self.stator_clearance
 
 
+def is_numeric(metadata: dict[str, Any]) -> bool:
+    """True for a number parameter, False for a string one (a choice or a fluid name)."""
+    return "choices" not in metadata and not metadata.get("fluid")
+
+
 def declarations():
     """(name, default, metadata) for every parameter, in declaration order."""
     return [(f.name, f.default, dict(f.metadata)) for f in dataclasses.fields(CompressorParameters)]
@@ -148,6 +166,8 @@ def allowed_range_text(metadata: dict[str, Any]) -> str:
     """Human-readable allowed range of one parameter, e.g. '[0, 0.001] m' or 'one of harmonic, cycloidal'."""
     if "choices" in metadata:
         return "one of " + ", ".join(metadata["choices"])
+    if metadata.get("fluid"):
+        return "a CoolProp fluid name"
     left = "(" if metadata["exclusive_min"] else "["
     kind = "integer in " if metadata["integer"] else ""
     unit = "" if metadata["unit"] == "1" else metadata["unit"]
@@ -166,6 +186,14 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
             if value not in meta["choices"]:
                 _reject(name, value, allowed)
             continue
+        if meta.get("fluid"):
+            if not isinstance(value, str):
+                _reject(name, value, allowed)
+            try:
+                Fluid(value)
+            except ValueError as error:
+                raise ValueError(f"parameter '{name}' = {value!r} is not valid: {error}") from None
+            continue
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             _reject(name, value, allowed)
         if meta["integer"] and int(value) != value:
@@ -183,6 +211,8 @@ def _validate_relations(params: CompressorParameters) -> None:
     if p.discharge_pressure <= p.suction_pressure:
         _reject("discharge_pressure", p.discharge_pressure,
                 f"greater than suction_pressure = {p.suction_pressure:g} Pa")
+    if p.pressure_model == "real_gas":
+        check_operating_point(Fluid(p.fluid), p.suction_pressure, p.suction_temperature, p.discharge_pressure)
     if p.min_step >= p.max_step or p.initial_step > p.max_step:
         _reject("min_step", p.min_step, f"min_step < initial_step <= max_step = {p.max_step:g} s")
     if p.stroke >= p.base_radius:

@@ -35,6 +35,13 @@ class WindowSummary:
     max_tilt: float               # max |phi3 - theta| [rad]
     mode_dwell: dict              # mode mask -> cumulative dwell [s]
     distinct_modes: tuple         # masks with dwell >= tau_min
+    # chamber gas (Level 1; NaN for the pressure tables), SPEC §6.4, §7
+    suction_mass_flow: float = math.nan     # net mass from the suction side / duration [kg/s]
+    discharge_mass_flow: float = math.nan   # mass through the discharge valve / duration [kg/s]
+    discharge_enthalpy: float = math.nan    # mass-weighted enthalpy of the discharged gas [J/kg]
+    indicated_power: float = math.nan       # <-sum_chambers p dV/dt> [W]
+    gas_mass_residual: float = math.nan     # (dm_chambers - m_suction + m_discharge) / m_discharge
+    gas_energy_residual: float = math.nan   # (dU_chambers - E_suction + E_discharge - W_chambers) / W_chambers
 
     @property
     def torque_balance_error(self) -> float:
@@ -80,6 +87,7 @@ def summarise(history: History, first: int, last: int, rotor_inertia: float, min
     gap_mean = float(np.trapezoid(col("gap_moment")[window], time) / duration)
     forces = tuple(float(np.max(col(f"normal_force_{k}")[window])) for k in range(1, 7))
     dwell = mode_dwell(time, col("contact_mode")[window])
+    gas = _gas_figures(history, first, last, duration)
     return WindowSummary(
         start_time=float(time[0]), end_time=float(time[-1]),
         input_power=work["work_in"] / duration, output_power=work["work_out"] / duration,
@@ -88,7 +96,26 @@ def summarise(history: History, first: int, last: int, rotor_inertia: float, min
         energy_residual=residual / work["work_in"],
         driving_torque=work["work_in"] / angle_turned, stator_torque=stator_mean, gap_torque=gap_mean,
         max_normal_force=forces, max_tilt=float(np.max(np.abs(col("vane_tilt")[window]))),
-        mode_dwell=dwell, distinct_modes=tuple(distinct_modes(dwell, min_dwell)))
+        mode_dwell=dwell, distinct_modes=tuple(distinct_modes(dwell, min_dwell)), **gas)
+
+
+def _gas_figures(history: History, first: int, last: int, duration: float) -> dict:
+    """Level 1 flow, enthalpy and work figures of a window, and its mass and energy balance residuals (SPEC §11
+    T19): the chamber contents change by what crossed their boundary."""
+    change = {name: history[name][last] - history[name][first]
+              for name in ("chamber_mass", "chamber_internal_energy", "mass_suction", "mass_discharge",
+                           "energy_suction", "energy_discharge", "work_chambers")}
+    if not math.isfinite(change["mass_discharge"]):
+        return {}
+    delivered = change["mass_discharge"]
+    return dict(
+        suction_mass_flow=change["mass_suction"] / duration, discharge_mass_flow=delivered / duration,
+        discharge_enthalpy=change["energy_discharge"] / delivered if delivered > 0.0 else math.nan,
+        indicated_power=change["work_chambers"] / duration,
+        gas_mass_residual=(change["chamber_mass"] - change["mass_suction"] + delivered) / delivered
+        if delivered > 0.0 else math.nan,
+        gas_energy_residual=(change["chamber_internal_energy"] - change["energy_suction"]
+                             + change["energy_discharge"] - change["work_chambers"]) / change["work_chambers"])
 
 
 def windows(history: History, period: float, rotor_inertia: float, min_dwell: float) -> list[WindowSummary]:

@@ -11,18 +11,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from thermo.property_table import describe_status, table_status
+
 from .displacement import displacement
 from .errors import IntegrationError
 from .geometry import law_arguments
 from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, advance_abm4,
                           advance_dopri5)
-from .layout import (ANGLE, ANGULAR_VELOCITY, MEM_LOBE_START, MEMORY_SIZE,
+from .layout import (MEM_LOBE_COUNT, GAS_STATE_INVALID, LEADING_DENSITY, LEADING_TEMPERATURE, REAL_GAS_STATE_SIZE, TRAILING_DENSITY,
+                     TRAILING_TEMPERATURE, ANGLE, ANGULAR_VELOCITY, MEM_LOBE_START, MEMORY_SIZE,
                      OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE, REACHED_END, RECORD_FULL, STATE_SIZE, STATUS_TEXT, VX,
                      VY, WORK_IN, X, Y)
+from .gas_source import gas_source
 from .machine import machine_from_parameters
 from .parameters import CompressorParameters
-from .pressure_source import leading_pressure_table
-from .speed import RPM, SpeedLaw, check_speed, constant_speed, rotor_motion
+from .speed import SpeedLaw, check_speed, constant_speed, rotor_motion
 
 RECORD_CHUNK = 4096
 
@@ -82,8 +85,8 @@ class Simulation:
             raise ValueError(f"'table_speed_rpm' = {table_rpm!r} rpm (the speed law's target unless given) is "
                              f"invalid for pressure_model 'ideal_gas_table': allowed an operating speed > 0 rpm "
                              f"(the table depends on it)")
-        self.machine = machine_from_parameters(self.params)
-        self.pressure_table = leading_pressure_table(self.params, operating_speed)
+        self.gas, suction_gas, self.gas_reference = gas_source(self.params, operating_speed)
+        self.machine = machine_from_parameters(self.params, suction_gas)
         self.keep_history = keep_history
         self.observers = list(observers)
         self.time = 0.0
@@ -94,7 +97,7 @@ class Simulation:
         self.memory[MEM_LOBE_START] = math.floor(initial_angle / lobe) * lobe
         self.control = np.zeros(CONTROL_SIZE)
         self.control[CONTROL_STEP] = self.params.initial_step
-        self.abm_history = np.zeros((ABM_HISTORY, STATE_SIZE))
+        self.abm_history = np.zeros((ABM_HISTORY, self.state.size))
         self.counters = np.zeros(COUNTER_SIZE, dtype=np.int64)
         self._chunks: list[np.ndarray] = []
         self._record = np.empty((RECORD_CHUNK, OUTPUT_SIZE))
@@ -110,9 +113,13 @@ class Simulation:
         e_t = np.array([-e_r[1], e_r[0]])
         centre = (radius - tip_centre) * e_r
         velocity = ds * omega * e_r + (radius - tip_centre) * omega * e_t
-        y = np.zeros(STATE_SIZE)
+        real_gas = p.pressure_model == "real_gas"
+        y = np.zeros(REAL_GAS_STATE_SIZE if real_gas else STATE_SIZE)
         y[X], y[Y], y[ANGLE] = centre[0], centre[1], angle
         y[VX], y[VY], y[ANGULAR_VELOCITY] = velocity[0], velocity[1], omega
+        if real_gas:                                # both chambers start at the suction state (SPEC §7.2)
+            y[LEADING_TEMPERATURE] = y[TRAILING_TEMPERATURE] = p.suction_temperature
+            y[LEADING_DENSITY] = y[TRAILING_DENSITY] = self.machine.suction_density
         return y
 
     # speed input ----------------------------------------------------------------------------------------
@@ -151,11 +158,11 @@ class Simulation:
         while True:
             if method_abm4:
                 status, t, rows = advance_abm4(self.time, self.state, float(end_time), self.machine,
-                                               self.speed_law, self.pressure_table, self.memory, self.control,
+                                               self.speed_law, self.gas, self.memory, self.control,
                                                self.abm_history, self._record, self.counters)
             else:
                 status, t, rows = advance_dopri5(self.time, self.state, float(end_time), self.machine,
-                                                 self.speed_law, self.pressure_table, self.memory, self.control,
+                                                 self.speed_law, self.gas, self.memory, self.control,
                                                  self._record, self.counters)
             self.time = t
             if rows:
@@ -167,7 +174,20 @@ class Simulation:
             if status == REACHED_END:
                 return
             if status != RECORD_FULL:
-                raise IntegrationError(STATUS_TEXT[status], t, self.state)
+                raise IntegrationError(self._failure_text(status), t, self.state)
+
+    def _failure_text(self, status: int) -> str:
+        """Why the loop stopped; for a chamber state the table refused, which chamber, its state and why."""
+        text = STATUS_TEXT[status]
+        if status == GAS_STATE_INVALID:
+            for name, temperature, density in (("leading", LEADING_TEMPERATURE, LEADING_DENSITY),
+                                               ("trailing", TRAILING_TEMPERATURE, TRAILING_DENSITY)):
+                code = table_status(self.state[temperature], self.state[density], self.gas.properties)
+                if code != 0:
+                    text += "; " + describe_status(code, self.state[temperature], self.state[density],
+                                                   self.gas.properties, fluid=self.gas_reference.fluid,
+                                                   state=f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})")
+        return text
 
     # results ------------------------------------------------------------------------------------------
     @property

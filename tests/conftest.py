@@ -334,7 +334,7 @@ def evaluate_at(sim, t, vane_state, onset=(0.0,) * 5):
     memory[MEM_ONSET_VELOCITY:MEM_ONSET_VELOCITY + 5] = onset
     dydt = np.zeros(STATE_SIZE)
     out = np.full(OUTPUT_SIZE, np.nan)
-    status = evaluate(t, y, sim.machine, sim.speed_law, sim.pressure_table, memory, dydt, out)
+    status = evaluate(t, y, sim.machine, sim.speed_law, sim.gas, memory, dydt, out)
     return status, dydt, dict(zip(OUTPUT_NAMES, out.tolist()))
 
 

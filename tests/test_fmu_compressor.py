@@ -214,7 +214,7 @@ assert host.initialize(**{**H.OPERATING_POINT, "initial_rotor_angle": 0.0}) == H
 fmu_rows = host.run(0.0, step, steps, speed)
 # the core the FMU bundles (same sources, already compiled), advanced as the glue advances it
 resources = pathlib.Path(host.unzipdir) / "resources"
-private = next(p.name for p in resources.iterdir() if p.name.startswith("rotary_vane_"))
+private = next(p.name for p in resources.iterdir() if p.is_dir() and p.name.startswith("rotary_vane_"))
 mechanics = importlib.import_module(private + ".mechanics")
 performance = importlib.import_module(private + ".mechanics.performance")
 layout = importlib.import_module(private + ".mechanics.layout")

@@ -297,6 +297,12 @@ def cross_instance_main(unzipdir, results_path):
 # =====================================================================================================================
 
 
+def is_numeric(meta):
+    """A number parameter (not a choice or a fluid name), as mechanics.parameters.is_numeric says."""
+    from mechanics.parameters import is_numeric as declared_numeric
+    return declared_numeric(meta)
+
+
 def _declarations():
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
     from mechanics.parameters import declarations
@@ -344,6 +350,11 @@ def parameter_cases(rng):
         expect[case_id] = {"invalid": invalid, "named": named}
 
     for name, (default, meta) in declared.items():
+        if meta.get("fluid"):
+            for value in BAD_STRINGS:
+                add(f"{name}={value!r:.30}", [(name, value)], True, (name, value))
+            add(f"{name}='Air'", [(name, "Air")], None)
+            continue
         if "choices" in meta:
             for value in BAD_STRINGS:
                 add(f"{name}={value!r:.30}", [(name, value)], True, (name, value))
@@ -380,7 +391,7 @@ def parameter_cases(rng):
     add("negative clearances", [("slot_clearance", -1e-5), ("stator_clearance", -1e-5)], True,
         ("slot_clearance", -1e-5))
     # seeded random combinations of in-range values (they may break a relation)
-    numeric = [n for n, (_, m) in declared.items() if "choices" not in m]
+    numeric = [n for n, (_, m) in declared.items() if is_numeric(m)]
     choice = [n for n, (_, m) in declared.items() if "choices" in m]
     for k in range(40):
         sets = []
@@ -520,7 +531,7 @@ def contract_cases():
 
 def random_sequence_cases(rng, count=60, length=30):
     declared = _declarations()
-    numeric = [n for n, (_, m) in declared.items() if "choices" not in m]
+    numeric = [n for n, (_, m) in declared.items() if is_numeric(m)]
     speeds = [1500.0, 1500.0, 0.0, 3000.0, 1e4, -5.0, math.nan, math.inf, 1e12]
     steps = [SMALL_STEP, SMALL_STEP, 1e-3, 0.0, -1e-4, 1e-9, math.nan, 2e-2]
     menu = [

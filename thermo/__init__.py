@@ -14,9 +14,22 @@ _install_compile_cache(Path(__file__).parent)       # before any kernel is defin
 
 from .nozzle import isentropic_nozzle_mass_flow  # noqa: E402
 from .pressure_tables import ideal_gas_pressure_table, polytropic_pressure_table  # noqa: E402
+from .fluid import Fluid, check_operating_point  # noqa: E402
+from .property_table import (Envelope, PropertyTable, describe_status, envelope_for,  # noqa: E402
+                             property_table_for, table_ideal_gas_exponent, table_properties, table_status)
 
 __all__ = [
     "isentropic_nozzle_mass_flow",
     "ideal_gas_pressure_table",
     "polytropic_pressure_table",
+    "Fluid",
+    "check_operating_point",
+    "Envelope",
+    "PropertyTable",
+    "describe_status",
+    "envelope_for",
+    "property_table_for",
+    "table_ideal_gas_exponent",
+    "table_properties",
+    "table_status",
 ]
