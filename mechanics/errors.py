@@ -11,3 +11,7 @@ class IntegrationError(RuntimeError):
         self.state = np.array(state, copy=True)
         super().__init__(f"integration stopped at t = {self.time:.9g} s: {reason}; "
                          f"state = {np.array2string(self.state, precision=6)}")
+
+    def __reduce__(self):
+        """Rebuild from (reason, time, state), so the error crosses process pools (pickling)."""
+        return type(self), (self.reason, self.time, self.state)

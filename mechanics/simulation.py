@@ -16,6 +16,7 @@ from thermo.property_table import describe_status, table_status
 from .displacement import displacement
 from .errors import IntegrationError
 from .geometry import law_arguments
+from .dynamics import evaluate
 from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, advance_abm4,
                           advance_dopri5)
 from .layout import (MEM_LOBE_COUNT, GAS_STATE_INVALID, LEADING_DENSITY, LEADING_TEMPERATURE, REAL_GAS_STATE_SIZE, TRAILING_DENSITY,
@@ -66,7 +67,9 @@ class Simulation:
     initial_angle: rotor angle theta0 at t = 0 [rad]; SPEC §3.3 uses 0.02 for constant speed, 0 for start-up.
     keep_history: record every accepted step (needed for plots and revolution summaries).
     table_speed_rpm: operating speed of the Level 0.5 pressure table (default: the speed law's target).
-    observers: callables given each chunk of accepted output rows as it is produced (they copy what they keep).
+    observers: callables given the output row of the initial state (t = 0, not part of the history), then each
+        chunk of accepted output rows as it is produced (they copy what they keep); a per-revolution monitor thus
+        sees the start as a boundary when the run starts on one.
     """
 
     def __init__(self, params: CompressorParameters | None = None, speed: SpeedLaw | None = None,
@@ -102,6 +105,12 @@ class Simulation:
         self._chunks: list[np.ndarray] = []
         self._record = np.empty((RECORD_CHUNK, OUTPUT_SIZE))
         self.last_output = np.full(OUTPUT_SIZE, np.nan)
+        if self.observers:
+            initial = np.empty((1, OUTPUT_SIZE))
+            evaluate(self.time, self.state, self.machine, self.speed_law, self.gas, self.memory.copy(),
+                     np.empty(self.state.size), initial[0])
+            for observer in self.observers:
+                observer(initial)
 
     def _nominal_state(self, angle: float, omega: float) -> np.ndarray:
         """Nominal pose and velocity (SPEC §3.3): untilted, centred, tip centre at R0 + s + c_S."""

@@ -153,4 +153,28 @@ def test_revolution_monitor_matches_the_history():
     assert monitor.last.input_power == pytest.approx(expected.input_power, rel=1e-12)
     assert monitor.last.max_normal_force == expected.max_normal_force
     assert monitor.last.distinct_modes == expected.distinct_modes
-    assert monitor.run_dwell.sum() == pytest.approx(sim.time - sim.history["time"][0], rel=1e-12)
+    assert monitor.run_dwell.sum() == pytest.approx(sim.time, rel=1e-12)    # from the initial row at t = 0
+
+
+def test_revolution_monitor_reports_the_first_revolution_from_a_boundary_start():
+    """A run that starts on a revolution boundary (theta0 = 0, as the FMU does by default) has its first
+    revolution [0, 2 pi] summarised as soon as it completes: the monitor receives the initial state's row."""
+    from mechanics.performance import RevolutionMonitor
+    params = CompressorParameters()
+    monitor = RevolutionMonitor(params)
+    sim = Simulation(params, initial_angle=0.0, keep_history=False, observers=[monitor])
+    sim.advance(1.5 * 60.0 / 1500.0)
+    assert monitor.last is not None
+    assert monitor.last.start_time == 0.0
+    assert monitor.last.end_time == pytest.approx(60.0 / 1500.0, rel=1e-12)
+
+
+def test_integration_error_survives_pickling():
+    """Process pools (studies, campaigns) send errors back pickled: reason, time and state survive."""
+    import pickle
+
+    from mechanics import IntegrationError
+    error = pickle.loads(pickle.dumps(IntegrationError("the step size fell below min_step", 0.25, np.arange(3.0))))
+    assert (error.reason, error.time) == ("the step size fell below min_step", 0.25)
+    assert np.array_equal(error.state, np.arange(3.0))
+    assert "t = 0.25 s" in str(error)
