@@ -105,6 +105,7 @@ class Run:
     window: dict[str, np.ndarray]          # history columns over the last full revolution
     wall_time: float
     steps: int
+    gas_figures: dict | None = None        # real-gas model: discharge temperature, efficiencies (GasReference)
 
 
 def make_parameters(clearance_mm: float, lobes: int, integrator: str) -> CompressorParameters:
@@ -123,7 +124,8 @@ def run_one(clearance_mm: float, params: CompressorParameters, rpm: float, revol
     t = history["time"]
     rows = (t >= summary.start_time) & (t <= summary.end_time)
     window = {name: history[name][rows] for name in history.names}
-    return Run(clearance_mm, params, summary, window, wall_time, len(history))
+    figures = None if simulation.gas_reference is None else simulation.gas_reference.figures(summary)
+    return Run(clearance_mm, params, summary, window, wall_time, len(history), figures)
 
 
 def angle_in_revolution(run: Run) -> np.ndarray:
@@ -164,6 +166,68 @@ def print_table(runs: list[Run]) -> None:
     print("E-resid: energy balance residual / W_in (SPEC §6.4); "
           "T-bal: |<T_d> - <lambda3 + M_gas,stator>| / <T_d> (SPEC §11 T11); T-bal+gaps adds the pressure "
           "moment on the tip, valley and slot-mouth gaps that no body carries")
+
+
+GAS_COLUMNS = (  # (header, width, format)
+    ("c [mm]", 6, "{:.3f}"), ("model", 15, "{}"), ("<P_in> [W]", 10, "{:.2f}"), ("<P_out> [W]", 11, "{:.2f}"),
+    ("eta_m [%]", 9, "{:.2f}"), ("P_ind [W]", 9, "{:.2f}"), ("m_dot [g/s]", 11, "{:.4f}"),
+    ("T_dis [K]", 9, "{:.2f}"), ("eta_v [%]", 9, "{:.2f}"), ("eta_is [%]", 10, "{:.2f}"),
+    ("mass-resid", 10, "{:+.1e}"), ("energy-resid", 12, "{:+.1e}"),
+)
+
+
+def gas_row(run: Run, figures: dict | None) -> list:
+    """Cells of one run in GAS_COLUMNS order; the chamber figures only for the real-gas model."""
+    s = run.summary
+    gas = [math.nan] * 6 if figures is None else [
+        s.indicated_power, 1e3 * s.discharge_mass_flow, figures["discharge_temperature"],
+        100.0 * figures["volumetric_efficiency"], 100.0 * figures["isentropic_efficiency"], s.gas_mass_residual]
+    return [run.clearance_mm, run.params.pressure_model, s.input_power, s.output_power,
+            100.0 * s.mechanical_efficiency, *gas, s.gas_energy_residual]
+
+
+def print_gas_comparison(pairs: list[tuple[Run, Run, dict]]) -> None:
+    """Level 0.5 (ideal-gas table) next to Level 1 (real-gas chambers) per clearance (issue 3)."""
+    header = "  ".join(f"{name:>{width}}" for name, width, _ in GAS_COLUMNS)
+    print(header)
+    print("-" * len(header))
+    for table_run, gas_run, figures in pairs:
+        for run, run_figures in ((table_run, None), (gas_run, figures)):
+            cells = gas_row(run, run_figures)
+            print("  ".join("n/a".rjust(width) if isinstance(value, float) and math.isnan(value)
+                            else f"{fmt.format(value):>{width}}" for (_, width, fmt), value in zip(GAS_COLUMNS, cells)))
+    print("P_ind: -sum p dV/dt of the two chambers; m_dot: discharge mass flow; T_dis: mixed discharge temperature; "
+          "eta_v: delivered mass / (rho_s z L A_lobe); eta_is: m_dot (h_2s - h_1) / <P_in>; residuals: chamber "
+          "mass / delivered mass and chamber energy / compression work over the revolution (SPEC §11 T19)")
+
+
+def plot_pv_diagram(runs: list[Run], path: Path) -> None:
+    """p-V diagram of the real-gas chambers over the first lobe of the reported revolution: the trailing chamber
+    fills (suction), the leading chamber compresses and discharges."""
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    for run, color in zip(runs, plt.cm.viridis(np.linspace(0.0, 0.85, len(runs)))):
+        lobe = 360.0 / run.params.lobes
+        first = angle_in_revolution(run) <= lobe
+        for chamber, style in (("leading", "-"), ("trailing", "--")):
+            volume = 1e6 * run.window[f"{chamber}_volume"][first]
+            pressure = 1e-5 * run.window[f"{chamber}_pressure"][first]
+            # a valley crossing hands the chamber over (leading -> trailing, idle -> leading): no line across it
+            jumps = np.flatnonzero(np.abs(np.diff(volume)) > 0.5 * np.max(volume)) + 1
+            ax.plot(np.insert(volume, jumps, np.nan), np.insert(pressure, jumps, np.nan), style, color=color,
+                    lw=1.2, label=f"c = {run.clearance_mm:g} mm, {chamber} chamber")
+    p = runs[0].params
+    for pressure, name in ((p.suction_pressure, "suction"), (p.discharge_pressure, "discharge")):
+        ax.axhline(1e-5 * pressure, color="grey", lw=0.8, ls=":")
+        ax.annotate(f"{name} {1e-5 * pressure:.3g} bar", (0.0, 1e-5 * pressure), textcoords="offset points",
+                    xytext=(4, 3), fontsize=8, color="grey")
+    ax.set_xlabel("chamber volume [cm³]")
+    ax.set_ylabel("chamber pressure [bar]")
+    ax.set_title(f"Real-gas chambers ({p.fluid}) over one lobe, z = {p.lobes}: p-V diagram")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def write_csv(runs: list[Run], path: Path) -> None:
@@ -319,6 +383,20 @@ def main(argv=None) -> int:
 
     print_table(runs)
     write_csv(runs, args.out / "summary.csv")
+
+    print("\nLevel 0.5 (ideal-gas pressure table) and Level 1 (real-gas chambers coupled to the vane), "
+          f"{params[0].fluid}:")
+    pairs = []
+    for clearance, table_run in zip(args.clearances, runs):
+        gas_params = table_run.params.replace(pressure_model="real_gas")
+        try:
+            gas_run = run_one(clearance, gas_params, args.rpm, args.revolutions)
+        except IntegrationError as error:
+            print(f"error: c = {clearance:g} mm, real gas: {error.reason} at t = {error.time:.6g} s", file=sys.stderr)
+            return 1
+        pairs.append((table_run, gas_run, gas_run.gas_figures))
+    print_gas_comparison(pairs)
+    plot_pv_diagram([gas_run for _, gas_run, _ in pairs], args.out / "pv_diagram.png")
     plot_kinematics(runs, args.rpm, args.out / "kinematics.png")
     plot_contact_forces(runs, args.rpm, args.out / "contact_forces.png")
     plot_torques(runs, args.rpm, args.out / "torques.png")
