@@ -30,7 +30,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from report import heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 
-from thermo.fluid import Fluid, coolprop  # noqa: E402
+from thermo.fluid import Fluid, coolprop, typical_operating_point  # noqa: E402
 from thermo.property_table import (PROPERTY_NAMES, STATUS_INACCURATE_CELL, STATUS_OK,  # noqa: E402
                                    build_property_table, dome_log_density_limit, envelope_for, property_table_for,
                                    property_table_path, table_properties, table_status)
@@ -38,18 +38,6 @@ from thermo.property_table import (PROPERTY_NAMES, STATUS_INACCURATE_CELL, STATU
 STAGES_PER_STEP = 6            # Dormand-Prince right-hand sides per step
 CHAMBERS = 2                   # leading and trailing chamber of the active lobe
 FLUIDS = ("R134a", "Air", "CO2", "R410A", "R1234yf", "R290")
-
-
-def operating_point(fluid: Fluid):
-    """SPEC §7.1 for R134a and air; CO2 3.5 -> 10 MPa; the others evaporate at 0 °C (10 K superheat) and condense
-    at 50 °C."""
-    if fluid.name == "R134a":
-        return 0.2928e6, 283.15, 1.3179e6
-    if fluid.name == "Air":
-        return 101325.0, 293.15, 5e5
-    if fluid.name == "CO2":
-        return 3.5e6, 283.15, 10e6
-    return fluid.dew_pressure(273.15), 283.15, fluid.dew_pressure(323.15)
 
 
 # 1. numba ----------------------------------------------------------------------------------------------------
@@ -96,7 +84,7 @@ def best_of(function, *args, repeats=5):
 def chamber_path(fluid: Fluid, calls: int):
     """A compression/expansion cycle between the suction state and the isentropic discharge state, sampled at
     `calls` points over 20 cycles (neighbouring calls are close, as in a time loop)."""
-    p_s, t_s, p_d = operating_point(fluid)
+    p_s, t_s, p_d = typical_operating_point(fluid)
     suction_density = fluid.density(t_s, p_s)
     end = fluid.state_at_pressure_entropy(p_d, fluid.properties(t_s, suction_density).entropy)
     phase = 0.5 * (1.0 - np.cos(np.linspace(0.0, 40.0 * math.pi, calls)))
@@ -194,7 +182,7 @@ def refused_gas_cells(property_table) -> int:
 
 def fluid_figures(name: str, cache_dir: Path, samples: int, rng) -> dict:
     fluid = Fluid(name)
-    envelope = envelope_for(fluid, *operating_point(fluid))
+    envelope = envelope_for(fluid, *typical_operating_point(fluid))
     start = time.perf_counter()
     property_table = property_table_for(fluid, envelope, cache_dir=cache_dir)
     build = time.perf_counter() - start
@@ -246,7 +234,7 @@ def main() -> None:
     rng = np.random.default_rng(2024)
     start = time.perf_counter()
     warm_up = Fluid("R134a")
-    build_property_table(warm_up, envelope_for(warm_up, *operating_point(warm_up)), 8, 8)
+    build_property_table(warm_up, envelope_for(warm_up, *typical_operating_point(warm_up)), 8, 8)
     print(f"first 8 x 8 build in this process (numba compile or cache load of the build kernels, CoolProp import): "
           f"{time.perf_counter() - start:.2f} s; build times below exclude it")
     with tempfile.TemporaryDirectory() as folder:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from thermo.fluid import Fluid
+from thermo.fluid import Fluid, typical_operating_point
 from thermo.property_table import (STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
                                    STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK,
                                    STATUS_TEMPERATURE_ABOVE_TABLE, STATUS_TEMPERATURE_BELOW_TABLE, Envelope,
@@ -28,18 +28,6 @@ ACCURACY = {"pressure": 1e-5, "enthalpy": 1e-5, "isochoric_heat_capacity": 1e-4,
             "pressure_temperature_derivative": 1e-4}
 MAIN_FLUIDS = ("R134a", "Air", "CO2")
 LIGHT_FLUIDS = ("R410A", "R1234yf", "R290")
-
-
-def operating_point(fluid):
-    """SPEC §7.1 for R134a and air; CO2 as a transcritical heat pump; the others evaporate at 0 °C with 10 K
-    superheat and condense at 50 °C."""
-    if fluid.name == "R134a":
-        return 0.2928e6, 283.15, 1.3179e6
-    if fluid.name == "Air":
-        return 101325.0, 293.15, 5e5
-    if fluid.name == "CO2":
-        return 3.5e6, 283.15, 10e6
-    return fluid.dew_pressure(273.15), 283.15, fluid.dew_pressure(323.15)
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +43,7 @@ def tables(cache_dir):
     def get(name):
         if name not in built:
             fluid = Fluid(name)
-            envelope = envelope_for(fluid, *operating_point(fluid))
+            envelope = envelope_for(fluid, *typical_operating_point(fluid))
             built[name] = (fluid, envelope, property_table_for(fluid, envelope, cache_dir=cache_dir))
         return built[name]
     return get
@@ -163,7 +151,7 @@ def test_envelope_holds_the_compressor_states(tables, name):
     """Suction, the isentropic discharge at p_d, over-compression to 1.5 p_d and 50 K above the isentrope, and
     re-expansion to 0.5 p_s: inside the table unless HEOS says the state is within 1 K + margin of the dome."""
     fluid, envelope, table = tables(name)
-    suction_pressure, suction_temperature, discharge_pressure = operating_point(fluid)
+    suction_pressure, suction_temperature, discharge_pressure = typical_operating_point(fluid)
     entropy = fluid.properties(suction_temperature, fluid.density(suction_temperature, suction_pressure)).entropy
     discharge = fluid.state_at_pressure_entropy(discharge_pressure, entropy)
     over = fluid.state_at_pressure_entropy(1.5 * discharge_pressure, entropy)

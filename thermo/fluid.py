@@ -223,6 +223,19 @@ class Fluid:
         return float(temperature) - (self.critical_temperature if dew is None else dew)
 
 
+def typical_operating_point(fluid: Fluid) -> tuple[float, float, float]:
+    """(p_s [Pa], T_s [K], p_d [Pa]) of a typical compressor duty: SPEC §7.1 for R134a and air; CO2 as a
+    transcritical heat pump (3.5 -> 10 MPa, 283.15 K); other fluids evaporating at 0 °C with 10 K superheat and
+    condensing at 50 °C."""
+    if fluid.name == "R134a":
+        return 0.2928e6, 283.15, 1.3179e6
+    if fluid.name == "Air":
+        return 101325.0, 293.15, 5e5
+    if fluid.name == "CO2":
+        return 3.5e6, 283.15, 10e6
+    return fluid.dew_pressure(273.15), 283.15, fluid.dew_pressure(323.15)
+
+
 def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, discharge_pressure,
                           superheat_margin=SUPERHEAT_MARGIN):
     """Validate a compressor operating point (SPEC §7.1) before any work starts; ValueError otherwise.
