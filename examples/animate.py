@@ -49,6 +49,9 @@ from matplotlib.patches import PathPatch, Polygon                # noqa: E402
 from matplotlib.path import Path as MplPath                      # noqa: E402
 from PIL import Image                                            # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))     # the shared example modules
+
+from cli_types import number_parser, whole_number_parser  # noqa: E402
 from mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
 from mechanics.contact import slot_bottom_contact, slot_mouth_contact, tip_contact  # noqa: E402
 from mechanics.displacement import displacement  # noqa: E402
@@ -524,36 +527,6 @@ def write_3d(frames: Frames, path: Path, exaggeration: float = 20.0, fps: float 
 
 
 # command line --------------------------------------------------------------------------------------------
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r} is invalid: allowed a finite value > 0")
-    return value
-
-
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r} is invalid: allowed a finite value >= 0")
-    return value
-
-
-def _frame_count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"{value} is invalid: allowed a whole number >= 2")
-    return value
-
-
 def _size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(part) for part in text.lower().split("x"))
@@ -570,17 +543,17 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                     "ffmpeg is found) and/or a self-contained 3D HTML page.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--kind", choices=("2d", "3d", "both"), default="both", help="which animations to write")
-    parser.add_argument("--rpm", type=_positive, default=1500.0, help="constant rotor speed [rpm]")
+    parser.add_argument("--rpm", type=number_parser("rpm"), default=1500.0, help="constant rotor speed [rpm]")
     parser.add_argument("--clearance", type=float, default=0.05,
                         help="slot clearance c_R (total) = stator clearance c_S [mm]")
     parser.add_argument("--lobes", type=int, default=3, help="number of stator lobes z")
     parser.add_argument("--exaggeration", type=float, default=20.0,
                         help="factor on the clearances and the vane's offsets from its nominal pose in the drawing")
-    parser.add_argument("--revolutions", type=_positive, default=1.0, help="simulated revolutions shown")
-    parser.add_argument("--settle", type=_non_negative, default=1.0,
+    parser.add_argument("--revolutions", type=number_parser("revolutions"), default=1.0, help="simulated revolutions shown")
+    parser.add_argument("--settle", type=number_parser("revolutions", low_inclusive=True), default=1.0,
                         help="revolutions simulated first and not shown (start transient)")
-    parser.add_argument("--frames", type=_frame_count, default=72, help="frames over the revolutions shown")
-    parser.add_argument("--fps", type=_positive, default=12.0, help="playback frames per second")
+    parser.add_argument("--frames", type=whole_number_parser(2), default=72, help="frames over the revolutions shown")
+    parser.add_argument("--fps", type=number_parser("frames/s"), default=12.0, help="playback frames per second")
     parser.add_argument("--size", type=_size, default=(800, 720), help="2D frame size WIDTHxHEIGHT [pixels]")
     parser.add_argument("--out", type=Path, default=Path("out/animate"), help="output folder")
     args = parser.parse_args(argv)

@@ -212,24 +212,6 @@ class ProgressBar:
 
 
 # command line -----------------------------------------------------------------------------------------------
-def number_parser(unit: str, low: float = 0.0, high: float = math.inf, low_inclusive: bool = False):
-    """argparse type: a finite number in (low, high] (or [low, high]); the error names the value, the allowed
-    range and the unit. Ranges of FMU variables are checked against the modelDescription instead
-    (`check_start_values`), so that the FMU stays the one source of them."""
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number (in {unit})") from None
-        above = value >= low if low_inclusive else value > low
-        if not (math.isfinite(value) and above and value <= high):
-            allowed = (f"{'>=' if low_inclusive else '>'} {low:g}" if high == math.inf
-                       else f"{'[' if low_inclusive else '('}{low:g}, {high:g}]")
-            raise argparse.ArgumentTypeError(f"{text} {unit} is out of range: allowed {allowed} {unit}")
-        return value
-    return parse
-
-
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """--help with each option's default, except where the default is None (the help text says what then)."""
 

@@ -30,6 +30,7 @@ matplotlib.use("Agg")                      # files only, no window
 import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
+from cli_types import number_parser, whole_number_parser  # noqa: E402
 from mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
 from mechanics.displacement import LAW_CODES, displacement  # noqa: E402
 from mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
@@ -54,27 +55,6 @@ def clearance_list(text: str) -> list[float]:
     return values
 
 
-def positive_number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value) or value <= 0.0:
-        raise argparse.ArgumentTypeError(f"{text!r} is invalid: allowed a finite value > 0")
-    return value
-
-
-def revolution_count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"{value} is too few: at least 2 revolutions are needed to have one "
-                                         f"full revolution to report (the run starts at 0.02 rad)")
-    return value
-
-
 def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namespace]:
     parser = argparse.ArgumentParser(
         description="Run the single-vane rotary compressor at constant speed for one or more clearances, "
@@ -83,9 +63,9 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     parser.add_argument("--clearances", type=clearance_list, default="0,0.05", metavar="MM[,MM...]",
                         help="comma-separated clearances in mm; each sets slot clearance c_R (total, diametral) "
                              "= stator clearance c_S (radial)")
-    parser.add_argument("--rpm", type=positive_number, default=1500.0, help="constant rotor speed [rpm]")
+    parser.add_argument("--rpm", type=number_parser("rpm"), default=1500.0, help="constant rotor speed [rpm]")
     parser.add_argument("--lobes", type=int, default=3, help="number of stator lobes z")
-    parser.add_argument("--revolutions", type=revolution_count, default=4,
+    parser.add_argument("--revolutions", type=whole_number_parser(2, "one full revolution to report needs 2, the run starts at 0.02 rad"), default=4,
                         help="revolutions to simulate; the first ones settle the start transient and only the "
                              "last full revolution is reported and plotted")
     parser.add_argument("--integrator", choices=INTEGRATORS, default="dopri5",

@@ -62,6 +62,7 @@ import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
 import fmu_harness as harness              # noqa: E402
+from cli_types import number_parser  # noqa: E402
 
 SCHEMES = ("jacobi", "gauss_seidel", "iterative")
 SCHEME_NAMES = {"jacobi": "Jacobi", "gauss_seidel": "Gauss-Seidel", "iterative": "iterative"}
@@ -80,7 +81,7 @@ class CouplingFailure(RuntimeError):
 
 def step_list(text: str) -> tuple[float, ...]:
     """'1e-4,1e-3' -> (0.0001, 0.001); each a finite step > 0 s."""
-    parse = harness.number_parser("s", 0.0, 1.0)
+    parse = number_parser("s", 0.0, 1.0)
     try:
         values = tuple(sorted(parse(item) for item in text.split(",") if item.strip()))
     except argparse.ArgumentTypeError as error:
@@ -100,19 +101,19 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                         help=f"comma-separated communication steps [s] of the study; the finest is the reference "
                              f"(iterative master); each must be a whole multiple of the finest "
                              f"(default {','.join(f'{h:g}' for h in FULL_STEPS)})")
-    parser.add_argument("--stop-time", type=harness.number_parser("s"), default=None,
+    parser.add_argument("--stop-time", type=number_parser("s"), default=None,
                         help="simulated time [s] from rest (default 0.5; --quick 0.2)")
     parser.add_argument("--steady-revolutions", type=int, default=None,
                         help="the steady speed and powers are means over this many last whole revolutions "
                              f"(default {FULL['steady_revolutions']}; --quick {QUICK['steady_revolutions']})")
-    parser.add_argument("--sizing-step", type=harness.number_parser("s", 0.0, 0.1), default=None,
+    parser.add_argument("--sizing-step", type=number_parser("s", 0.0, 0.1), default=None,
                         help="communication step [s] of the sizing runs (iterative master; default 1e-3)")
-    parser.add_argument("--motor-power", type=harness.number_parser("W"), default=1500.0,
+    parser.add_argument("--motor-power", type=number_parser("W"), default=1500.0,
                         help="rated power of the induction motor [W] (DriveMotor rated_power; the other nameplate "
                              "values stay at the FMU's defaults: 1440 rpm, 50 Hz, 2 pole pairs, T_b/T_r = 2.5)")
-    parser.add_argument("--undersized-power", type=harness.number_parser("W"), default=250.0,
+    parser.add_argument("--undersized-power", type=number_parser("W"), default=250.0,
                         help="rated power [W] of the undersized motor of the sizing comparison")
-    parser.add_argument("--iteration-tolerance", type=harness.number_parser("N.m"), default=1e-3,
+    parser.add_argument("--iteration-tolerance", type=number_parser("N.m"), default=1e-3,
                         help="iterative master: a step is converged when the compressor's step-mean torque "
                              "differs from the torque the motor was given by at most this [N.m] (0.04 %% of the "
                              "mean load). Below about 2e-4 N.m the step-mean torque is not a smooth function of "

@@ -30,6 +30,7 @@ import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
 import fmu_harness as harness              # noqa: E402
+from cli_types import number_parser  # noqa: E402
 
 GAS_OUTPUTS = ("discharge_mass_flow", "discharge_temperature")     # from the real-gas model
 REGIONS = range(1, 7)
@@ -40,10 +41,10 @@ def parse_arguments(argv=None) -> argparse.Namespace:
         description="Simulate RotaryVaneCompressor.fmu alone at constant shaft speed with fmpy, print a summary "
                     "of the last completed revolution, write result.csv, summary.json and PNG plots.",
         formatter_class=harness.HelpFormatter)
-    parser.add_argument("--speed", type=harness.number_parser("rpm"), default=1500.0,
+    parser.add_argument("--speed", type=number_parser("rpm"), default=1500.0,
                         help="constant shaft speed [rpm] (the FMU input shaft_speed; its range is checked against "
                              "the FMU's modelDescription)")
-    parser.add_argument("--clearance", type=harness.number_parser("m", low_inclusive=True), default=5e-5,
+    parser.add_argument("--clearance", type=number_parser("m", low_inclusive=True), default=5e-5,
                         help="clearance [m]: sets both slot_clearance (vane-slot, total) and stator_clearance "
                              "(vane-stator, radial), as in the thesis; 5e-5 m = 0.05 mm")
     parser.add_argument("--lobes", type=int, default=3, help="number of stator lobes z (compression cycles per "
@@ -56,10 +57,10 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                         help="chamber gas: real_gas (Level 1, real fluid in chambers coupled to the vane; gives "
                              "mass flow and discharge temperature), ideal_gas_table (Level 0.5, faster) or "
                              "polytropic (Level 0)")
-    parser.add_argument("--duration", type=harness.number_parser("s"), default=1.0,
+    parser.add_argument("--duration", type=number_parser("s"), default=1.0,
                         help="simulated time [s]; at least 2 revolutions (the first settles the start, the "
                              "summary is over the last completed one)")
-    parser.add_argument("--step", type=harness.number_parser("s", 0.0, 0.05), default=1e-3,
+    parser.add_argument("--step", type=number_parser("s", 0.0, 0.05), default=1e-3,
                         help="communication step [s] (fmpy's output_interval): the FMU is called and sampled "
                              "every STEP seconds")
     harness.add_common_options(parser, "standalone")

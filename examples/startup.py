@@ -33,6 +33,7 @@ import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
 import fmu_harness as harness              # noqa: E402
+from cli_types import number_parser  # noqa: E402
 
 WINDOWS = ((0.0, 0.5), (0.0, 0.4), (0.4, 0.5))      # s, the thesis's start-up figures
 # (label, FMU output, scale to the plotted unit, plotted unit)
@@ -50,15 +51,15 @@ def parse_arguments(argv=None) -> argparse.Namespace:
         description="Start-up of RotaryVaneCompressor.fmu with fmpy: cycloidal speed ramp from rest (SPEC §3.2), "
                     "vane kinematics vs time over 0-0.5, 0-0.4 and 0.4-0.5 s (thesis Figs 5.33-5.47).",
         formatter_class=harness.HelpFormatter)
-    parser.add_argument("--speed", type=harness.number_parser("rpm"), default=1500.0,
+    parser.add_argument("--speed", type=number_parser("rpm"), default=1500.0,
                         help="steady speed omega_ss reached at the end of the ramp [rpm]")
-    parser.add_argument("--ramp-time", type=harness.number_parser("s"), default=0.4,
+    parser.add_argument("--ramp-time", type=number_parser("s"), default=0.4,
                         help="ramp duration t_r [s] (cycloidal ramp from rest)")
-    parser.add_argument("--stop-time", type=harness.number_parser("s"), default=1.2, help="simulated time [s]")
-    parser.add_argument("--clearance", type=harness.number_parser("m", low_inclusive=True), default=5e-5,
+    parser.add_argument("--stop-time", type=number_parser("s"), default=1.2, help="simulated time [s]")
+    parser.add_argument("--clearance", type=number_parser("m", low_inclusive=True), default=5e-5,
                         help="clearance [m]: sets slot_clearance (vane-slot, total) and stator_clearance "
                              "(vane-stator, radial); 5e-5 m = 0.05 mm")
-    parser.add_argument("--step", type=harness.number_parser("s", 0.0, 0.01), default=1e-4,
+    parser.add_argument("--step", type=number_parser("s", 0.0, 0.01), default=1e-4,
                         help="communication step [s] (fmpy's output_interval); the thesis's curves need about "
                              "1e-4 s to show the vane's impacts")
     harness.add_common_options(parser, "startup")
