@@ -26,15 +26,14 @@ from pathlib import Path
 from report import heading, table  # benchmarks/ is the script's folder
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO_ROOT / "examples"))
-import campaign  # noqa: E402  (examples/campaign.py)
+from rotary_vane.examples import campaign  # noqa: E402
 
 CLEARANCES_MM = (0.0, 0.02, 0.05, 0.1, 0.2)
 SPEEDS_RPM = (1000.0, 1500.0, 2000.0)
 
 
 def build_fmu(out_dir: Path) -> Path:
-    done = subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out_dir)], cwd=REPO_ROOT,
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir)], cwd=REPO_ROOT,
                           capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"FMU build failed:\n{done.stdout}\n{done.stderr}")

@@ -99,7 +99,7 @@ def stderr_tail(done) -> str:
 
 
 def build_fmu(out_dir: Path) -> Path:
-    done = subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out_dir)], cwd=REPO_ROOT,
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir)], cwd=REPO_ROOT,
                           capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"FMU build failed:\n{done.stdout}\n{done.stderr}")
@@ -170,10 +170,9 @@ def fmu_worker(args: dict) -> dict:
 
 def core_worker(args: dict) -> dict:
     """Time one core case with mechanics.Simulation of this checkout."""
-    sys.path.insert(0, str(REPO_ROOT))
-    from mechanics import CompressorParameters, Simulation, constant_speed
-    from mechanics.layout import WORK_IN
-    from mechanics.performance import RevolutionMonitor
+    from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+    from rotary_vane.mechanics.layout import WORK_IN
+    from rotary_vane.mechanics.performance import RevolutionMonitor
 
     params = CompressorParameters(slot_clearance=CLEARANCE, stator_clearance=CLEARANCE)
     h, stop, case = args["step"], args["stop_time"], args["case"]

@@ -23,8 +23,6 @@ import time
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-if str(REPO_ROOT) not in sys.path:
-    sys.path.insert(0, str(REPO_ROOT))
 
 import numpy as np  # noqa: E402
 from report import heading, table  # noqa: E402  (benchmarks/ is the script's folder)
@@ -43,13 +41,13 @@ COUNTER_NAMES = ("accepted", "rejected", "evaluations", "valley_crossings", "mod
 
 # helpers ----------------------------------------------------------------------------------------------
 def parameters(clearance_mm: float, integrator: str):
-    from mechanics import CompressorParameters
+    from rotary_vane.mechanics import CompressorParameters
     c = clearance_mm * 1e-3
     return CompressorParameters(lobes=LOBES, slot_clearance=c, stator_clearance=c, integrator=integrator)
 
 
 def new_simulation(params, keep_history: bool = False):
-    from mechanics import Simulation, constant_speed
+    from rotary_vane.mechanics import Simulation, constant_speed
     return Simulation(params, speed=constant_speed(RPM), keep_history=keep_history)
 
 
@@ -92,7 +90,7 @@ def timed_window(params, settle_revolutions: int, revolutions: int) -> dict:
 
 def measure_numba(clearance_mm: float, integrator: str, revolutions: int, repeats: int) -> dict:
     """Median of `repeats` fresh timed windows (the step counts are deterministic)."""
-    from mechanics import IntegrationError
+    from rotary_vane.mechanics import IntegrationError
     params = parameters(clearance_mm, integrator)
     try:
         warm_up(params)
@@ -145,7 +143,7 @@ def report_numba(results: list[dict], revolutions: int, repeats: int) -> None:
 # 2. scipy DOP853 on the same right-hand side ------------------------------------------------------------
 def tolerance_vector():
     """atol of SPEC §8.2: positions 1e-9 m, angle 1e-8 rad, velocities 1e-6 m/s, omega3 1e-4 rad/s, works 1e-6 J."""
-    from mechanics.layout import STATE_SIZE
+    from rotary_vane.mechanics.layout import STATE_SIZE
     return np.array([1e-9, 1e-9, 1e-8, 1e-6, 1e-6, 1e-4] + [1e-6] * (STATE_SIZE - 6))
 
 
@@ -153,10 +151,10 @@ def scipy_revolution(sim, t_start: float, y_start: np.ndarray, memory: np.ndarra
     """One revolution with scipy.integrate.DOP853 stepped by hand; memory updated after each accepted step."""
     from scipy.integrate import DOP853
 
-    from mechanics.dynamics import evaluate
-    from mechanics.integrators import _accept, _cross_valley
-    from mechanics.layout import MEM_LOBE_START, OUTPUT_SIZE, STATE_SIZE, WORK_IN
-    from mechanics.speed import rotor_motion
+    from rotary_vane.mechanics.dynamics import evaluate
+    from rotary_vane.mechanics.integrators import _accept, _cross_valley
+    from rotary_vane.mechanics.layout import MEM_LOBE_START, OUTPUT_SIZE, STATE_SIZE, WORK_IN
+    from rotary_vane.mechanics.speed import rotor_motion
 
     machine, law, table_p = sim.machine, sim.speed_law, sim.gas
     memory = memory.copy()
@@ -199,8 +197,8 @@ def scipy_revolution(sim, t_start: float, y_start: np.ndarray, memory: np.ndarra
 
 def evaluate_call_cost(sim, calls: int = 20000) -> float:
     """µs per call of the numba `evaluate` from Python (dispatch + unboxing of the Machine tuple)."""
-    from mechanics.dynamics import evaluate
-    from mechanics.layout import OUTPUT_SIZE, STATE_SIZE
+    from rotary_vane.mechanics.dynamics import evaluate
+    from rotary_vane.mechanics.layout import OUTPUT_SIZE, STATE_SIZE
     y, memory = sim.state.copy(), sim.memory.copy()
     dydt, out = np.empty(STATE_SIZE), np.empty(OUTPUT_SIZE)
     args = (sim.machine, sim.speed_law, sim.gas, memory, dydt, out)
@@ -212,7 +210,7 @@ def evaluate_call_cost(sim, calls: int = 20000) -> float:
 
 
 def compare_scipy(numba_reference: dict | None) -> None:
-    from mechanics.layout import WORK_IN
+    from rotary_vane.mechanics.layout import WORK_IN
     heading(f"2. scipy DOP853 stepped by hand on the numba RHS, c = {REFERENCE_CLEARANCE_MM} mm, dopri5 settle "
             f"1 revolution, then 1 revolution timed")
     params = parameters(REFERENCE_CLEARANCE_MM, "dopri5")
@@ -286,7 +284,7 @@ def compare_pure_python(numba_reference: dict | None) -> None:
 STARTUP_CODE = """
 import json, time
 t0 = time.perf_counter()
-import mechanics
+import rotary_vane.mechanics as mechanics
 t1 = time.perf_counter()
 sim = mechanics.Simulation()
 t2 = time.perf_counter()

@@ -23,15 +23,13 @@ import time
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-if str(REPO_ROOT) not in sys.path:
-    sys.path.insert(0, str(REPO_ROOT))
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from report import heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 
-from thermo.fluid import Fluid, coolprop, typical_operating_point  # noqa: E402
-from thermo.property_table import (PROPERTY_NAMES, STATUS_INACCURATE_CELL, STATUS_OK,  # noqa: E402
+from rotary_vane.thermo.fluid import Fluid, coolprop, typical_operating_point  # noqa: E402
+from rotary_vane.thermo.property_table import (PROPERTY_NAMES, STATUS_INACCURATE_CELL, STATUS_OK,  # noqa: E402
                                    build_property_table, dome_log_density_limit, envelope_for, property_table_for,
                                    property_table_path, table_properties, table_status)
 

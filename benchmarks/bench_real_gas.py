@@ -14,14 +14,12 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
-from mechanics.chambers import chamber_volume_rates, chamber_volumes  # noqa: E402
-from mechanics.dynamics import evaluate  # noqa: E402
-from mechanics.layout import OUTPUT_SIZE  # noqa: E402
-from thermo.property_table import table_properties  # noqa: E402
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
+from rotary_vane.mechanics.chambers import chamber_volume_rates, chamber_volumes  # noqa: E402
+from rotary_vane.mechanics.dynamics import evaluate  # noqa: E402
+from rotary_vane.mechanics.layout import OUTPUT_SIZE  # noqa: E402
+from rotary_vane.thermo.property_table import table_properties  # noqa: E402
 
 from report import heading, table  # noqa: E402
 

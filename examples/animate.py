@@ -49,16 +49,15 @@ from matplotlib.patches import PathPatch, Polygon                # noqa: E402
 from matplotlib.path import Path as MplPath                      # noqa: E402
 from PIL import Image                                            # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))     # the shared example modules
 
-from cli_types import number_parser, whole_number_parser  # noqa: E402
-from mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
-from mechanics.contact import slot_bottom_contact, slot_mouth_contact, tip_contact  # noqa: E402
-from mechanics.displacement import displacement  # noqa: E402
-from mechanics.geometry import closest_pitch_parameter, stator_point  # noqa: E402
-from mechanics.layout import ANGLE, OUTPUT_INDEX, X, Y  # noqa: E402
-from mechanics.machine import Machine, machine_from_parameters  # noqa: E402
-from mechanics.modes import REGION_LABELS  # noqa: E402
+from rotary_vane.examples.cli_types import number_parser, whole_number_parser  # noqa: E402
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
+from rotary_vane.mechanics.contact import slot_bottom_contact, slot_mouth_contact, tip_contact  # noqa: E402
+from rotary_vane.mechanics.displacement import displacement  # noqa: E402
+from rotary_vane.mechanics.geometry import closest_pitch_parameter, stator_point  # noqa: E402
+from rotary_vane.mechanics.layout import ANGLE, OUTPUT_INDEX, X, Y  # noqa: E402
+from rotary_vane.mechanics.machine import Machine, machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.modes import REGION_LABELS  # noqa: E402
 
 MM = 1e3                          # drawings are in mm
 TWO_PI = 2.0 * math.pi

@@ -40,13 +40,13 @@ a new host compiles the numba kernels (about 10 s; cached in ROTARY_VANE_CACHE_D
 Python API (run it under `if __name__ == "__main__":`: local workers are spawned processes that import the main
 module):
 
-    from campaign import grid, read_store, run_campaign      # examples/ on sys.path
+    from rotary_vane.examples.campaign import grid, read_store, run_campaign
     points = grid({("slot_clearance", "stator_clearance"): [0.0, 5e-5], "shaft_speed": [1000, 1500]},
                   fixed={"stop_time": 0.5})
     report = run_campaign("build/fmu/RotaryVaneCompressor.fmu", points, "out/study.csv", workers=2)
     rows = read_store("out/study.csv")                        # dicts of strings, one per point
 
-Usage (after `python -m fmu_src.build`, which writes build/fmu/RotaryVaneCompressor.fmu):
+Usage (after `python -m rotary_vane.fmu_src.build`, which writes build/fmu/RotaryVaneCompressor.fmu):
 
     python examples/campaign.py --list-parameters
     python examples/campaign.py --store out/clearance.csv \\
@@ -173,7 +173,7 @@ class ParameterSpace:
         self.fmu = Path(fmu).resolve()
         if not self.fmu.is_file():
             raise ValueError(f"FMU file {str(self.fmu)!r} does not exist (build it with "
-                             f"`python -m fmu_src.build --out DIR`)")
+                             f"`python -m rotary_vane.fmu_src.build --out DIR`)")
         description = read_model_description(str(self.fmu))
         self.guid = description.guid
         self.settings: dict[str, Setting] = {}

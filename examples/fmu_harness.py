@@ -3,7 +3,7 @@
 The harnesses use the built `.fmu` files through fmpy exactly as a user would; this module holds what all three
 need and nothing of the physics:
 
-* `ensure_fmus`: build the FMUs with `python -m fmu_src.build --out DIR` when they are missing or stale. Stale
+* `ensure_fmus`: build the FMUs with `python -m rotary_vane.fmu_src.build --out DIR` when they are missing or stale. Stale
   means built from other sources: every FMU carries the project's code under a private package name
   `rotary_vane_<version>_<source hash>` (fmu_src/build.py, `private_package_name`), read here from the names in
   the .fmu archive and compared with the name the current sources give.
@@ -56,7 +56,7 @@ def bundled_package(fmu: Path) -> str | None:
 
 def stale_reason(fmu_dir: Path) -> str | None:
     """Why the FMUs in `fmu_dir` must be (re)built, or None if they were built from the current sources."""
-    from fmu_src.build import private_package_name
+    from rotary_vane.fmu_src.build import private_package_name
     current = private_package_name()
     for name in (COMPRESSOR, MOTOR):
         path = fmu_dir / f"{name}.fmu"
@@ -81,8 +81,8 @@ def ensure_fmus(fmu_dir: Path) -> Path:
     if reason is None:
         print(f"FMUs in {fmu_dir} are up to date with the sources")
         return fmu_dir
-    print(f"building the FMUs ({reason}): python -m fmu_src.build --out {fmu_dir}", flush=True)
-    done = subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(fmu_dir)], cwd=PROJECT_DIR,
+    print(f"building the FMUs ({reason}): python -m rotary_vane.fmu_src.build --out {fmu_dir}", flush=True)
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(fmu_dir)], cwd=PROJECT_DIR,
                           capture_output=True, text=True)
     if done.returncode != 0:
         raise HarnessError(f"the FMU build failed (exit status {done.returncode}):\n{done.stdout}{done.stderr}")
@@ -223,7 +223,7 @@ def add_common_options(parser: argparse.ArgumentParser, script: str) -> None:
     """--fmu-dir, --out and --verbose, the same for every harness."""
     parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR,
                         help="folder of RotaryVaneCompressor.fmu and DriveMotor.fmu; they are built there "
-                             "(python -m fmu_src.build --out DIR) if missing or stale, i.e. if the private package "
+                             "(python -m rotary_vane.fmu_src.build --out DIR) if missing or stale, i.e. if the private package "
                              "name rotary_vane_<version>_<source hash> bundled in an FMU differs from the one of "
                              "the current sources")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT_ROOT / script,

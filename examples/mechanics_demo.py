@@ -30,12 +30,12 @@ matplotlib.use("Agg")                      # files only, no window
 import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
-from cli_types import number_parser, whole_number_parser  # noqa: E402
-from mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
-from mechanics.displacement import LAW_CODES, displacement  # noqa: E402
-from mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
-from mechanics.parameters import INTEGRATORS  # noqa: E402
-from mechanics.performance import WindowSummary, revolutions  # noqa: E402
+from rotary_vane.examples.cli_types import number_parser, whole_number_parser  # noqa: E402
+from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
+from rotary_vane.mechanics.displacement import LAW_CODES, displacement  # noqa: E402
+from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
+from rotary_vane.mechanics.parameters import INTEGRATORS  # noqa: E402
+from rotary_vane.mechanics.performance import WindowSummary, revolutions  # noqa: E402
 
 REGIONS = range(1, 7)                      # contact regions c1..c6 (SPEC §1.3)
 

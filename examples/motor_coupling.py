@@ -61,8 +61,8 @@ matplotlib.use("Agg")                      # files only, no window
 import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
-import fmu_harness as harness              # noqa: E402
-from cli_types import number_parser  # noqa: E402
+from rotary_vane.examples import fmu_harness as harness              # noqa: E402
+from rotary_vane.examples.cli_types import number_parser  # noqa: E402
 
 SCHEMES = ("jacobi", "gauss_seidel", "iterative")
 SCHEME_NAMES = {"jacobi": "Jacobi", "gauss_seidel": "Gauss-Seidel", "iterative": "iterative"}

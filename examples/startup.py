@@ -32,8 +32,8 @@ matplotlib.use("Agg")                      # files only, no window
 import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
-import fmu_harness as harness              # noqa: E402
-from cli_types import number_parser  # noqa: E402
+from rotary_vane.examples import fmu_harness as harness              # noqa: E402
+from rotary_vane.examples.cli_types import number_parser  # noqa: E402
 
 WINDOWS = ((0.0, 0.5), (0.0, 0.4), (0.4, 0.5))      # s, the thesis's start-up figures
 # (label, FMU output, scale to the plotted unit, plotted unit)

@@ -40,11 +40,11 @@ matplotlib.use("Agg")                      # files only, no window
 import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
-from mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
-from mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
-from mechanics.performance import WindowSummary  # noqa: E402
-from mechanics_demo import Run, plot_contact_modes, run_one  # noqa: E402
-from study_report import DEFAULT_OUT, markdown_table, write_manifest, write_report  # noqa: E402
+from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
+from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
+from rotary_vane.mechanics.performance import WindowSummary  # noqa: E402
+from rotary_vane.examples.mechanics_demo import Run, plot_contact_modes, run_one  # noqa: E402
+from rotary_vane.examples.study_report import DEFAULT_OUT, markdown_table, write_manifest, write_report  # noqa: E402
 
 LOBES = 3
 SPEEDS_RPM = (1000.0, 1500.0, 2000.0)

@@ -34,15 +34,15 @@ matplotlib.use("Agg")                      # files only, no window
 import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
-from mechanics import CompressorParameters  # noqa: E402
-from mechanics.geometry import closest_pitch_frame, stator_regularity  # noqa: E402
-from mechanics.machine import Machine, machine_from_parameters  # noqa: E402
-from mechanics.performance import WindowSummary  # noqa: E402
-from animate import Frames, reference_centre, simulate_frames, stator_curve  # noqa: E402
-from mechanics_demo import run_one  # noqa: E402
-from study_clearance import (POWER_HEADERS, QUICK_REVOLUTIONS, REVOLUTIONS, PointFailed, power_cells,  # noqa: E402
+from rotary_vane.mechanics import CompressorParameters  # noqa: E402
+from rotary_vane.mechanics.geometry import closest_pitch_frame, stator_regularity  # noqa: E402
+from rotary_vane.mechanics.machine import Machine, machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.performance import WindowSummary  # noqa: E402
+from rotary_vane.examples.animate import Frames, reference_centre, simulate_frames, stator_curve  # noqa: E402
+from rotary_vane.examples.mechanics_demo import run_one  # noqa: E402
+from rotary_vane.examples.study_clearance import (POWER_HEADERS, QUICK_REVOLUTIONS, REVOLUTIONS, PointFailed, power_cells,  # noqa: E402
                              run_points, span, study_arguments, study_parameters, trend, write_tables)
-from study_report import markdown_table, write_manifest, write_report  # noqa: E402
+from rotary_vane.examples.study_report import markdown_table, write_manifest, write_report  # noqa: E402
 
 LOBE_COUNTS = (3, 5, 7, 9)
 QUICK_LOBE_COUNTS = (3, 5, 9)

@@ -12,9 +12,9 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
 from pythonfmu.variables import Boolean
 
-from mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
-from mechanics.layout import OUTPUT_INDEX, WORK_IN
-from mechanics.performance import RevolutionMonitor
+from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
+from rotary_vane.mechanics.layout import OUTPUT_INDEX, WORK_IN
+from rotary_vane.mechanics.performance import RevolutionMonitor
 
 from .slave import GuardedSlave
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter

@@ -15,9 +15,9 @@ import math
 
 from numba import njit
 
-from thermo.control_volume import (chamber_derivatives, internal_energy_temperature, port_coverage,
+from rotary_vane.thermo.control_volume import (chamber_derivatives, internal_energy_temperature, port_coverage,
                                    signed_nozzle_flow)
-from thermo.property_table import table_properties
+from rotary_vane.thermo.property_table import table_properties
 
 from .layout import (ENERGY_DISCHARGE, ENERGY_SUCTION, LEADING_DENSITY, LEADING_TEMPERATURE, MASS_DISCHARGE,
                      MASS_SUCTION, TRAILING_DENSITY, TRAILING_TEMPERATURE, WORK_CHAMBERS)

@@ -10,11 +10,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import CoolProp
 import numpy as np
 
-from thermo.fluid import Fluid
-from thermo.property_table import PropertyTable, envelope_for, property_table_for, table_properties
+from rotary_vane.thermo.fluid import Fluid, coolprop
+from rotary_vane.thermo.property_table import PropertyTable, envelope_for, property_table_for, table_properties
 
 from .geometry import lobe_area
 from .machine import SuctionGas, ideal_suction_gas
@@ -49,10 +48,10 @@ class GasReference:
         self.isentropic_discharge_enthalpy = fluid.isentropic_enthalpy(params.discharge_pressure, suction.entropy)
         self.suction_density = suction_density
         self.displacement = params.lobes * params.axial_length * lobe_area(params)
-        self._state = CoolProp.AbstractState("HEOS", params.fluid)
+        self._state = coolprop().AbstractState("HEOS", params.fluid)
 
     def _temperature(self, pressure, enthalpy):
-        self._state.update(CoolProp.HmassP_INPUTS, enthalpy, pressure)
+        self._state.update(coolprop().HmassP_INPUTS, enthalpy, pressure)
         return self._state.T()
 
     def figures(self, summary) -> dict[str, float]:

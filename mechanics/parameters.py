@@ -13,7 +13,7 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
-from thermo.fluid import Fluid, check_operating_point
+from rotary_vane.thermo.fluid import Fluid, check_operating_point
 
 from .geometry import check_stator_regularity
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermo.property_table import describe_status, table_status
+from rotary_vane.thermo.property_table import describe_status, table_status
 
 from .displacement import displacement
 from .errors import IntegrationError

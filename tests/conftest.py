@@ -5,6 +5,9 @@ imported from `mechanics`, so the tests compare the package against an independe
 """
 import math
 import os
+import re
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -320,10 +323,10 @@ def evaluate_at(sim, t, vane_state, onset=(0.0,) * 5):
     (x3, y3, phi3, vx3, vy3, phi_dot3), with the stored approach velocities `onset` (slots c1..c4, tip).
     The closest-point warm start is 0 (a start at atan2(T) for the offset convention; any start is valid,
     the Brent safeguard covers the rest). Returns (status, dydt, outputs as a dict)."""
-    from mechanics.dynamics import evaluate
-    from mechanics.layout import (MEM_LOBE_START, MEM_ONSET_VELOCITY, MEMORY_SIZE, OUTPUT_NAMES, OUTPUT_SIZE,
+    from rotary_vane.mechanics.dynamics import evaluate
+    from rotary_vane.mechanics.layout import (MEM_LOBE_START, MEM_ONSET_VELOCITY, MEMORY_SIZE, OUTPUT_NAMES, OUTPUT_SIZE,
                                   STATE_SIZE)
-    from mechanics.speed import rotor_motion
+    from rotary_vane.mechanics.speed import rotor_motion
 
     y = np.zeros(STATE_SIZE)
     y[:6] = vane_state
@@ -375,3 +378,26 @@ def built_fmus(tmp_path_factory):
     """All FMUs and system files of this checkout, built once per test session into a temporary folder."""
     import fmu_helpers
     return fmu_helpers.build_fmu(tmp_path_factory.mktemp("built_fmus")).parent
+
+
+PYTHON_NAME = re.compile(r"python[0-9.]*$")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def every_subprocess_python_is_this_one():
+    """Fail any test that starts a Python interpreter other than `sys.executable` (the virtual environment's), even
+    behind a wrapper such as valgrind: another interpreter lacks what the README installs on a fresh machine, and a
+    machine whose base Python happens to have the packages would hide that."""
+    original = subprocess.Popen.__init__
+
+    def checked(self, args, *rest, **kwargs):
+        argv = [args] if isinstance(args, (str, os.PathLike)) else list(args)
+        for word in map(str, argv[:8]):
+            if PYTHON_NAME.search(os.path.basename(word)) and os.sep in word and word != sys.executable:
+                raise AssertionError(f"a test started the interpreter {word!r}, not sys.executable "
+                                     f"({sys.executable!r}): on a fresh machine it lacks the project's packages")
+        original(self, args, *rest, **kwargs)
+
+    subprocess.Popen.__init__ = checked
+    yield
+    subprocess.Popen.__init__ = original

@@ -3,7 +3,7 @@
 Every FMU run happens in a separate Python process (a "host"): a crash inside the FMU (a numba kernel, the
 pythonfmu C++ layer, interpreter exit) then shows as a non-zero exit status instead of killing pytest. Two halves:
 
-* test side (`build_fmu`, `run_host`, `run_hosts`): build the FMU with `python -m fmu_src.build`, run a host script
+* test side (`build_fmu`, `run_host`, `run_hosts`): build the FMU with `python -m rotary_vane.fmu_src.build`, run a host script
   with a timeout and return its exit status, stderr and the JSON it emitted.
 * host side (`Host`, `simulate`, `speed_signal`, `emit`): imported by the host scripts (this file only imports the
   standard library at module level, so a host can import foreign `mechanics`/`thermo` packages first). `Host`
@@ -41,7 +41,7 @@ OPERATING_POINT = {"shaft_speed": 1500.0, "slot_clearance": 5e-5, "stator_cleara
 def build_fmu(out_dir: Path, project_dir: Path = PROJECT_DIR, timeout: float = 300.0) -> Path:
     """Build the FMU of the sources in `project_dir` into `out_dir` (a subprocess); return the .fmu path."""
     out_dir = Path(out_dir)
-    done = subprocess.run([sys.executable, "-m", "fmu_src.build", "--out", str(out_dir)], cwd=project_dir,
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir)], cwd=project_dir,
                           env=host_environment(), capture_output=True, text=True, timeout=timeout)
     if done.returncode != 0:
         raise RuntimeError(f"FMU build in {project_dir} failed with exit status {done.returncode}:\n"

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from mechanics import CompressorParameters
-from mechanics.chambers import chamber_volume_rates, chamber_volumes, stator_sectors
-from mechanics.displacement import displacement
-from mechanics.geometry import closest_pitch_parameter, law_arguments, lobe_area, stator_point
-from mechanics.machine import machine_from_parameters
-from mechanics.pressure_source import thin_vane_volume
+from rotary_vane.mechanics import CompressorParameters
+from rotary_vane.mechanics.chambers import chamber_volume_rates, chamber_volumes, stator_sectors
+from rotary_vane.mechanics.displacement import displacement
+from rotary_vane.mechanics.geometry import closest_pitch_parameter, law_arguments, lobe_area, stator_point
+from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.pressure_source import thin_vane_volume
 
 LOBES = (3, 5, 7, 9)
 OMEGA = 1500.0 * math.pi / 30.0

@@ -8,11 +8,11 @@ import pytest
 from scipy import integrate
 from scipy.integrate import solve_ivp
 
-from mechanics import CompressorParameters, Simulation, constant_speed
-from mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, elastic_force,
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+from rotary_vane.mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, elastic_force,
                                friction_coefficient_effective, hertz_stiffness, normal_force, slot_bottom_contact,
                                slot_mouth_contact, tip_contact)
-from mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.machine import machine_from_parameters
 
 RPM = 2 * math.pi / 60
 E_STAR_SPEC = 113.7e9        # SPEC §5.2 / §9

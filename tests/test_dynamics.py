@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp
-from mechanics.displacement import displacement
-from mechanics.geometry import law_arguments
-from mechanics.layout import REAL_GAS_OUTPUT_NAMES
-from mechanics.performance import lobes, revolutions
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp
+from rotary_vane.mechanics.displacement import displacement
+from rotary_vane.mechanics.geometry import law_arguments
+from rotary_vane.mechanics.layout import REAL_GAS_OUTPUT_NAMES
+from rotary_vane.mechanics.performance import lobes, revolutions
 
 CLEARANCES = (0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3)
 INTEGRATORS = ("dopri5", "abm4")

@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from thermo.fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point
+from rotary_vane.thermo.fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point
 
 REQUIRED_FLUIDS = ("R134a", "Air", "R410A", "R1234yf", "R290", "CO2")
 SPEC_SUCTION = (0.2928e6, 283.15, 1.3179e6)           # SPEC §7.1: p_s, T_s, p_d for R134a

@@ -1,6 +1,6 @@
 """Product tests of RotaryVaneCompressor.fmu (FMI 2.0 co-simulation) through fmpy (issue 4, "What it must show").
 
-The FMU is built once for this module (`python -m fmu_src.build`) into a temporary folder, and every FMU run
+The FMU is built once for this module (`python -m rotary_vane.fmu_src.build`) into a temporary folder, and every FMU run
 happens in a separate host process (tests/fmu_helpers.py) whose exit status is checked: a crash of the FMU or at
 interpreter exit fails the test instead of killing pytest. The numba
 kernels are cached in a temporary ROTARY_VANE_CACHE_DIR for the module (the user's cache is never touched); a
@@ -680,7 +680,7 @@ def test_fmu_makes_no_invalid_memory_access_in_the_host_up_to_its_exit(fmu, env,
     host.write_text(f"import sys\nsys.path.append({str(H.TESTS_DIR)!r})\n" + script(VALGRIND_HOST, fmu=fmu))
     log = tmp_path / "valgrind.log"
     done = subprocess.run([valgrind, "--error-limit=no", "--num-callers=30", f"--log-file={log}",
-                           os.path.realpath(sys.executable), str(host)], cwd=tmp_path,
+                           sys.executable, str(host)], cwd=tmp_path,
                           env={**env, "PYTHONMALLOC": "malloc"}, capture_output=True, text=True, timeout=600)
     assert H.RESULT_PREFIX + '"done"' in done.stdout, done.stderr[-2000:]
     found = invalid_accesses(log.read_text(), (f"{H.MODEL}.so", "module_dealloc"))

@@ -299,13 +299,13 @@ def cross_instance_main(unzipdir, results_path):
 
 def is_numeric(meta):
     """A number parameter (not a choice or a fluid name), as mechanics.parameters.is_numeric says."""
-    from mechanics.parameters import is_numeric as declared_numeric
+    from rotary_vane.mechanics.parameters import is_numeric as declared_numeric
     return declared_numeric(meta)
 
 
 def _declarations():
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    from mechanics.parameters import declarations
+    from rotary_vane.mechanics.parameters import declarations
     return {name: (default, meta) for name, default, meta in declarations()}
 
 

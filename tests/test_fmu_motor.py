@@ -1,6 +1,6 @@
 """The DriveMotor FMU (fmu_src/motor.py) as built: validators, and the motor physics against closed forms.
 
-The FMUs are built once per module into a temporary folder (`python -m fmu_src.build --out DIR`) and every FMU run
+The FMUs are built once per module into a temporary folder (`python -m rotary_vane.fmu_src.build --out DIR`) and every FMU run
 happens in a subprocess started in that folder, so the FMU can only use its own bundled code. pythonfmu 0.7.0
 cannot instantiate the same FMU twice in one process (its class lookup releases a reference to the entry module's
 globals that it does not own), so each subprocess instantiates each FMU once and uses fmi2Reset for more runs.

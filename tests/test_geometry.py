@@ -11,12 +11,12 @@ import pytest
 from scipy import integrate
 from scipy.optimize import brentq, minimize_scalar
 
-from mechanics import CompressorParameters
-from mechanics import geometry
-from mechanics.displacement import LAW_CODES, displacement
-from mechanics.geometry import (closest_pitch_parameter, law_arguments, lobe_area, pitch_curve, pitch_frame,
+from rotary_vane.mechanics import CompressorParameters
+from rotary_vane.mechanics import geometry
+from rotary_vane.mechanics.displacement import LAW_CODES, displacement
+from rotary_vane.mechanics.geometry import (closest_pitch_parameter, law_arguments, lobe_area, pitch_curve, pitch_frame,
                                 stator_point, stator_regularity)
-from mechanics.machine import machine_from_parameters, vane_mass_properties
+from rotary_vane.mechanics.machine import machine_from_parameters, vane_mass_properties
 
 H = 5.0e-3            # SPEC §9 stroke
 R_ROTOR = 30.0e-3

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, linear_ramp
-from mechanics.dynamics import reported_kinematics
-from mechanics.speed import rotor_motion
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, linear_ramp
+from rotary_vane.mechanics.dynamics import reported_kinematics
+from rotary_vane.mechanics.speed import rotor_motion
 
 RPM = 2 * math.pi / 60
 XI_G = -7.209e-3              # SPEC §2.1 default CG position (the transforms hold for any value)

@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, declarations
-from mechanics.parameters import is_numeric
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, declarations
+from rotary_vane.mechanics.parameters import is_numeric
 
 
 def assert_rejected(name, value, **overrides):

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from thermo.fluid import Fluid, typical_operating_point
-from thermo.property_table import (STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
+from rotary_vane.thermo.fluid import Fluid, typical_operating_point
+from rotary_vane.thermo.property_table import (STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
                                    STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK,
                                    STATUS_TEMPERATURE_ABOVE_TABLE, STATUS_TEMPERATURE_BELOW_TABLE, Envelope,
                                    build_property_table, describe_status, dome_log_density_limit, envelope_for,
@@ -239,8 +239,8 @@ SMALL_GRID = (40, 40)
 SUBPROCESS_SCRIPT = """
 import json, sys
 import numpy as np
-from thermo.fluid import Fluid
-from thermo.property_table import envelope_for, property_table_for, property_table_path
+from rotary_vane.thermo.fluid import Fluid
+from rotary_vane.thermo.property_table import envelope_for, property_table_for, property_table_path
 fluid = Fluid("R134a")
 envelope = envelope_for(fluid, 0.2928e6, 283.15, 1.3179e6)
 cache_dir = sys.argv[1] if len(sys.argv) > 1 else None

@@ -1,7 +1,7 @@
 """The README's parameter table is generated from the declarations: it must not drift from them."""
 from pathlib import Path
 
-from mechanics.parameters import markdown_table
+from rotary_vane.mechanics.parameters import markdown_table
 
 
 def test_readme_parameter_table_matches_the_declarations():

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from mechanics import CompressorParameters, Simulation, constant_speed
-from mechanics.performance import revolutions
-from thermo.control_volume import LINEAR_FLOW_BAND, chamber_derivatives, signed_nozzle_flow
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+from rotary_vane.mechanics.performance import revolutions
+from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, chamber_derivatives, signed_nozzle_flow
 
 OPERATING = dict(pressure_model="real_gas", slot_clearance=5e-5, stator_clearance=5e-5)
 

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from mechanics import (CompressorParameters, IntegrationError, Simulation, constant_speed, cycloidal_ramp,
+from rotary_vane.mechanics import (CompressorParameters, IntegrationError, Simulation, constant_speed, cycloidal_ramp,
                        linear_ramp)
-from mechanics.performance import revolutions
-from mechanics.speed import RPM
+from rotary_vane.mechanics.performance import revolutions
+from rotary_vane.mechanics.speed import RPM
 
 REVOLUTION = 0.04          # s at 1500 rpm
 
@@ -142,7 +142,7 @@ def test_start_up_ramp_end_is_an_event():
 def test_revolution_monitor_matches_the_history():
     """The FMU's running per-revolution figures equal the ones computed afterwards from the full history, also
     when the run is advanced in small pieces (revolution boundaries fall inside the pieces)."""
-    from mechanics.performance import RevolutionMonitor
+    from rotary_vane.mechanics.performance import RevolutionMonitor
     params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
     monitor = RevolutionMonitor(params)
     sim = Simulation(params, observers=[monitor])
@@ -159,7 +159,7 @@ def test_revolution_monitor_matches_the_history():
 def test_revolution_monitor_reports_the_first_revolution_from_a_boundary_start():
     """A run that starts on a revolution boundary (theta0 = 0, as the FMU does by default) has its first
     revolution [0, 2 pi] summarised as soon as it completes: the monitor receives the initial state's row."""
-    from mechanics.performance import RevolutionMonitor
+    from rotary_vane.mechanics.performance import RevolutionMonitor
     params = CompressorParameters()
     monitor = RevolutionMonitor(params)
     sim = Simulation(params, initial_angle=0.0, keep_history=False, observers=[monitor])
@@ -173,7 +173,7 @@ def test_integration_error_survives_pickling():
     """Process pools (studies, campaigns) send errors back pickled: reason, time and state survive."""
     import pickle
 
-    from mechanics import IntegrationError
+    from rotary_vane.mechanics import IntegrationError
     error = pickle.loads(pickle.dumps(IntegrationError("the step size fell below min_step", 0.25, np.arange(3.0))))
     assert (error.reason, error.time) == ("the step size fell below min_step", 0.25)
     assert np.array_equal(error.state, np.arange(3.0))

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from thermo import (
+from rotary_vane.thermo import (
     ideal_gas_pressure_table,
     isentropic_nozzle_mass_flow,
     polytropic_pressure_table,
