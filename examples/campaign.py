@@ -33,7 +33,7 @@ Cluster: a LocalCluster of `--workers` processes by default, or an existing sche
 tcp://host:8786`). Workers read the FMU from its path: on a remote cluster the file must be at the same absolute
 path on every worker host (a shared filesystem; a worker that lacks it, or has a different build, records the
 point as failed). Each worker needs Python of the client's minor version with dask/distributed and cloudpickle
-of the client's versions, fmpy, and the FMU's resources/requirements.txt (numpy, numba, scipy); this project need
+of the client's versions, fmpy, and the FMU's resources/requirements.txt (numpy, numba, pythonfmu; CoolProp for real gas); this project need
 not be installed there: the FMU bundles its code and this module's functions are sent by value. The first point on
 a new host compiles the numba kernels (about 10 s; cached in ROTARY_VANE_CACHE_DIR or ~/.cache).
 

@@ -384,16 +384,19 @@ PYTHON_NAME = re.compile(r"python[0-9.]*$")
 
 
 @pytest.fixture(scope="session", autouse=True)
-def every_subprocess_python_is_this_one():
+def every_subprocess_python_is_this_one(tmp_path_factory):
     """Fail any test that starts a Python interpreter other than `sys.executable` (the virtual environment's), even
     behind a wrapper such as valgrind: another interpreter lacks what the README installs on a fresh machine, and a
-    machine whose base Python happens to have the packages would hide that."""
+    machine whose base Python happens to have the packages would hide that. The one exception is an environment a
+    test made itself from `sys.executable` under the session's temporary folder (the FMU requirements test)."""
     original = subprocess.Popen.__init__
+    own_environments = str(tmp_path_factory.getbasetemp()) + os.sep
 
     def checked(self, args, *rest, **kwargs):
         argv = [args] if isinstance(args, (str, os.PathLike)) else list(args)
         for word in map(str, argv[:8]):
-            if PYTHON_NAME.search(os.path.basename(word)) and os.sep in word and word != sys.executable:
+            if (PYTHON_NAME.search(os.path.basename(word)) and os.sep in word and word != sys.executable
+                    and not word.startswith(own_environments)):
                 raise AssertionError(f"a test started the interpreter {word!r}, not sys.executable "
                                      f"({sys.executable!r}): on a fresh machine it lacks the project's packages")
         original(self, args, *rest, **kwargs)
