@@ -485,26 +485,32 @@ def test_fmu_runs_its_bundled_code_in_a_host_with_other_mechanics_and_thermo(fmu
 
 @pytest.fixture(scope="module")
 def other_version(tmp_path_factory) -> Path:
-    """A copy of this project as another version: VERSION 0.0.9 and rpm converted with a factor 2 too many, so
-    that code of this copy running instead of the FMU's own shows in every result."""
+    """A copy of this project as another version, laid out as installed (`rotary_vane/thermo`, ...): VERSION 0.0.9
+    and rpm converted with a factor 2 too many, so that code of this copy running instead of the FMU's own shows in
+    every result. Its `python -m rotary_vane.fmu_src.build`, run from `root`, builds the copy (the current folder
+    comes first on sys.path)."""
     root = tmp_path_factory.mktemp("other_version")
+    package_root = root / "rotary_vane"
+    package_root.mkdir()
+    shutil.copy(H.PROJECT_DIR / "rotary_vane" / "__init__.py", package_root / "__init__.py")
     for package in ("thermo", "mechanics", "fmu_src"):
-        shutil.copytree(H.PROJECT_DIR / package, root / package, ignore=shutil.ignore_patterns("__pycache__"))
+        shutil.copytree(H.PROJECT_DIR / package, package_root / package, ignore=shutil.ignore_patterns("__pycache__"))
     edits = {"mechanics/speed.py": ("RPM = 2.0 * math.pi / 60.0", "RPM = 2.0 * math.pi / 30.0"),
              "fmu_src/slave.py": ('VERSION = "0.1.0"', 'VERSION = "0.0.9"')}
     for relative, (old, new) in edits.items():
-        text = (root / relative).read_text()
+        text = (package_root / relative).read_text()
         assert old in text, f"the other-version edit of {relative} no longer applies: {old!r} not found"
-        (root / relative).write_text(text.replace(old, new))
+        (package_root / relative).write_text(text.replace(old, new))
     return root
 
 
 def test_fmu_runs_its_bundled_code_in_a_host_with_another_version_of_the_project(fmu, env, short_reference,
                                                                                   other_version):
-    """A host that imported another version of this project (its `mechanics`, `thermo` and `fmu_src`, with a
-    different rpm conversion) runs the FMU with bit-identical results."""
-    modules = ["thermo", "mechanics", "mechanics.speed", "fmu_src", "fmu_src.compressor"]
-    extra = "assert foreign['mechanics.speed'].RPM > 0.2, 'not the other version'"
+    """A host that imported another version of this project (its `rotary_vane.mechanics`, `.thermo` and
+    `.fmu_src`, with a different rpm conversion) runs the FMU with bit-identical results."""
+    modules = ["rotary_vane", "rotary_vane.thermo", "rotary_vane.mechanics", "rotary_vane.mechanics.speed",
+               "rotary_vane.fmu_src", "rotary_vane.fmu_src.compressor"]
+    extra = "assert foreign['rotary_vane.mechanics.speed'].RPM > 0.2, 'not the other version'"
     run = H.run_host(foreign_host(fmu, [str(other_version)], modules, extra), env=env)
     check_foreign_host(run, short_reference, "other version imported")
 
