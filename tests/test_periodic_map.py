@@ -118,3 +118,11 @@ def test_built_table_is_cached_never_stale_and_carries_the_detailed_work(tmp_pat
     assert first.torque_integral(0.0, 2 * math.pi, 1500.0) == pytest.approx(
         first.figure("input_power", 1500.0) * period, rel=1e-6)
     assert first.samples >= 720
+
+
+def test_vectorised_evaluation_is_the_single_channel_one():
+    table = synthetic_table(lambda a, s: 1.0 + 0.001 * s + np.sin(a), lambda a, s: 3.0 + 0.002 * s + np.cos(2 * a))
+    for angle, speed in ((0.3, 700.0), (-7.1, 1999.0), (100.0, 50.0)):
+        values = table.values(angle, speed)
+        assert values == {name: pytest.approx(table.value(name, angle, speed), rel=1e-13) for name in CHANNELS}
+        assert table.figures_at(speed) == {name: pytest.approx(table.figure(name, speed)) for name in FIGURES}
