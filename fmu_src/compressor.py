@@ -16,6 +16,7 @@ from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simula
 from rotary_vane.mechanics.layout import OUTPUT_INDEX, WORK_IN
 from rotary_vane.mechanics.performance import RevolutionMonitor
 
+from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
 from .slave import GuardedSlave
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
@@ -87,6 +88,8 @@ class CompressorSlave(GuardedSlave):
         super().__init__(**kwargs)
         self.simulation: Simulation | None = None
         self.monitor: RevolutionMonitor | None = None
+        self.map_run: PeriodicMapRun | None = None
+        self.fidelity = "detailed"
         self.shaft_speed = 1500.0
         self.interpolate_speed = True
         self.register_variable(RealVariable(
@@ -103,6 +106,10 @@ class CompressorSlave(GuardedSlave):
             initial=Fmi2Initial.exact,
             description="true: the speed moves linearly from its last value to the input over each step "
                         "(continuous speed); false: the input is held over the step"))
+        self.register_variable(declared_parameter("fidelity", dict(
+            choices=FIDELITIES, description="detailed: every vane impact resolved; periodic_map: the detailed "
+                                             "model's periodic steady state tabulated over 10-120 % of "
+                                             "pressure_table_speed at initialization, interpolated at run time")))
         self.outputs = dict.fromkeys([*END_OF_STEP, "shaft_torque_mean", "shaft_work", "shaft_angle",
                                       *PER_REVOLUTION, *PER_REVOLUTION_GAS], 0.0)
         self.contact_mode = 0
@@ -131,12 +138,18 @@ class CompressorSlave(GuardedSlave):
             value = getattr(self, name)
             if not (math.isfinite(value) and low <= value <= high):
                 raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed [{low:g}, {high:g}]")
+        if check_fidelity(self.fidelity) == "periodic_map":
+            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, self.shaft_speed,
+                                          self.initial_rotor_angle)
+            return
         self.monitor = RevolutionMonitor(params)
         self.simulation = Simulation(params, constant_speed(self.shaft_speed), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed,
                                      observers=[self.monitor])
 
     def advance(self, time, step_size):
+        if self.map_run is not None:
+            return self._advance_map(time, step_size)
         simulation = self.simulation
         if not math.isclose(time, simulation.time, rel_tol=1e-12, abs_tol=1e-12):
             return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
@@ -179,11 +192,29 @@ class CompressorSlave(GuardedSlave):
         self.contact_mode = int(row[OUTPUT_INDEX["contact_mode"]])
         self.contact_mode_count = len(self.monitor.distinct_modes)
 
+    def _advance_map(self, time, step_size):
+        """One step of the periodic_map fidelity (fmu_src.periodic_map_mode)."""
+        run = self.map_run
+        if not math.isclose(time, run.time, rel_tol=1e-12, abs_tol=1e-12):
+            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
+                               f"model time {run.time + self.start_time!r} s")
+        if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
+            return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
+                               f"[0, {MAX_SHAFT_SPEED:g}] rpm")
+        work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
+        self.outputs.update(run.outputs())
+        self.outputs["shaft_torque_mean"] = work / angle if angle > 0.0 else self.outputs["shaft_torque"]
+        self.outputs["shaft_work"] = run.work
+        self.outputs["shaft_angle"] = run.angle - self.initial_rotor_angle
+        self.contact_mode = run.contact_mode
+        return True
+
     # state --------------------------------------------------------------------------------------------------
     def snapshot(self):
         parameters = {name: getattr(self, name) for name in [*(n for n, _, _ in declarations()), *RUN_PARAMETERS,
-                                                              "interpolate_speed"]}
+                                                              "interpolate_speed", "fidelity"]}
         return dict(simulation=self.simulation.get_state() if self.simulation else None, monitor=self.monitor,
+                    map_run=self.map_run.get_state() if self.map_run else None,
                     outputs=self.outputs, contact_mode=self.contact_mode, parameters=parameters,
                     start_time=self.start_time, contact_mode_count=self.contact_mode_count, failure=self.failure,
                     shaft_speed=self.shaft_speed)
@@ -194,8 +225,13 @@ class CompressorSlave(GuardedSlave):
             setattr(self, name, value)
         for name in ("outputs", "contact_mode", "contact_mode_count", "failure", "shaft_speed", "start_time"):
             setattr(self, name, state[name])
+        if state.get("map_run") is not None:
+            if self.map_run is None:
+                self.initialize()
+            self.map_run.set_state(state["map_run"])
+            return
         if state["simulation"] is None:             # a state from before initialization
-            self.simulation = self.monitor = None
+            self.simulation = self.monitor = self.map_run = None
             return
         if self.simulation is None:
             self.initialize()
