@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import html
+import json
 import re
 import shutil
 import sys
@@ -112,8 +113,22 @@ fmi2Discard; a bad input or step size discards that step with a message. Message
 """
 
 
-def build(out_dir: Path) -> list[Path]:
-    """Write every FMU of MODELS into out_dir; return their paths."""
+def ship_map(private: str, map_file: Path) -> None:
+    """Build, with the bundled code, the periodic-map table of the parameter set in `map_file` (JSON: compressor
+    parameter names -> values, optionally pressure_table_speed [rpm]) into the bundle's `periodic_maps/` folder,
+    where the FMU's periodic_map fidelity finds it when its parameters and sources are exactly these."""
+    values = json.loads(Path(map_file).read_text())
+    operating = float(values.pop("pressure_table_speed", 1500.0))
+    parameters = __import__(f"{private}.mechanics.parameters", fromlist=["CompressorParameters"])
+    tables = __import__(f"{private}.mechanics.periodic_map", fromlist=["build_map"])
+    mode = __import__(f"{private}.fmu_src.periodic_map_mode", fromlist=["SHIPPED_TABLES"])
+    tables.build_map(parameters.CompressorParameters(**values), operating_rpm=operating,
+                     settings=tables.MapSettings(table_speed_rpm=operating), cache_dir=mode.SHIPPED_TABLES)
+
+
+def build(out_dir: Path, map_file: Path | None = None) -> list[Path]:
+    """Write every FMU of MODELS into out_dir (the compressor with the periodic-map table of `map_file` if given);
+    return their paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
     private = private_package_name()
     built = []
@@ -124,6 +139,8 @@ def build(out_dir: Path) -> list[Path]:
         (staging / "requirements.txt").write_text("\n".join(requirements) + "\n")
         sys.path.insert(0, str(staging))
         try:
+            if map_file is not None:
+                ship_map(private, map_file)
             for model, (module, cls) in MODELS.items():
                 slave_class = getattr(__import__(f"{private}.fmu_src.{module}", fromlist=[cls]), cls)
                 entry = staging / f"{private}_{model}.py"     # unique module name per version
@@ -149,8 +166,13 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description="Build the project's FMUs (FMI 2.0 co-simulation).")
     parser.add_argument("--out", type=Path, default=PROJECT_DIR / "build" / "fmu",
                         help="folder for the .fmu files")
+    parser.add_argument("--map", type=Path, default=None, metavar="PARAMETERS.json",
+                        help="ship the periodic-map table of this compressor parameter set (JSON of parameter "
+                             "names and values, optionally pressure_table_speed in rpm) inside the FMU")
     args = parser.parse_args(argv)
-    for path in build(args.out):
+    if args.map is not None and not args.map.is_file():
+        parser.error(f"--map {args.map}: no such file")
+    for path in build(args.out, args.map):
         print(path)
     return 0
 

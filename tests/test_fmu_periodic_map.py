@@ -96,3 +96,34 @@ host.close()
     assert result["step"] == 2
     assert any("'fidelity' = 'coarse' is invalid: allowed one of detailed, periodic_map" in m[2]
                for m in result["messages"])
+
+
+@pytest.mark.slow
+def test_build_ships_the_table_and_the_fmu_loads_it_instead_of_building(tmp_path, env):
+    """`build --map params.json` puts the table inside the FMU; a host with an empty cache then loads it from
+    the FMU's resources (no build message), and other parameters still build their own table."""
+    import subprocess
+    import sys
+    import zipfile
+    (tmp_path / "params.json").write_text(json.dumps({"slot_clearance": 2e-5, "stator_clearance": 2e-5,
+                                                      "pressure_table_speed": 1200.0}))
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(tmp_path / "fmu"),
+                           "--map", str(tmp_path / "params.json")], capture_output=True, text=True, timeout=600,
+                          env=H.host_environment())
+    assert done.returncode == 0, done.stderr[-3000:]
+    fmu = tmp_path / "fmu" / "RotaryVaneCompressor.fmu"
+    shipped = [n for n in zipfile.ZipFile(fmu).namelist() if "/periodic_maps/" in n and n.endswith(".npz")]
+    assert len(shipped) == 1
+    script = Template("""
+import fmu_helpers as H
+for clearance in (2e-5, 3e-5):
+    host = H.Host($fmu)
+    assert host.initialize(fidelity="periodic_map", pressure_table_speed=1200.0, shaft_speed=1200.0,
+                           slot_clearance=clearance, stator_clearance=clearance) == 0, host.messages()
+    host.close()
+""").substitute(fmu=repr(str(fmu)))
+    run = H.run_host(script, env=env, timeout=600).check()
+    loaded = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] loaded")]
+    built = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] building")]
+    assert len(loaded) == 1 and "resources" in loaded[0], run.stderr[-2000:]
+    assert len(built) == 1, run.stderr[-2000:]
