@@ -74,11 +74,46 @@ def accuracy(params, table, speed_rpm, settings):
                 power_scatter=reference["figure_scatter"]["input_power"] / reference["figures"]["input_power"])
 
 
+def fmu_step_costs(fmu: Path, steps: int, repeats: int, clearance: float, pressure_model: str):
+    """Median wall time of fmpy's low-level doStep at h = 1 ms, 1500 rpm, per fidelity (same process, same run)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    description = read_model_description(str(fmu))
+    folder = extract(str(fmu))
+    references = {v.name: v.valueReference for v in description.modelVariables}
+    costs = {}
+    for fidelity in ("detailed", "periodic_map"):
+        walls = []
+        for repeat in range(repeats):
+            slave = FMU2Slave(guid=description.guid, unzipDirectory=folder,
+                              modelIdentifier=description.coSimulation.modelIdentifier,
+                              instanceName=f"{fidelity}{repeat}")
+            slave.instantiate()
+            slave.setupExperiment(startTime=0.0)
+            slave.enterInitializationMode()
+            slave.setString([references["fidelity"], references["pressure_model"]], [fidelity, pressure_model])
+            slave.setReal([references[n] for n in ("shaft_speed", "slot_clearance", "stator_clearance")],
+                          [OPERATING_RPM, clearance, clearance])
+            slave.exitInitializationMode()
+            for k in range(50):                              # past the first revolutions
+                slave.doStep(k * STEP, STEP)
+            start = time.perf_counter()
+            for k in range(50, 50 + steps):
+                slave.doStep(k * STEP, STEP)
+            walls.append((time.perf_counter() - start) / steps)
+            slave.terminate()
+            slave.freeInstance()
+        costs[fidelity] = statistics.median(walls)
+    return costs
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--pressure-model", default="polytropic", choices=("polytropic", "ideal_gas_table",
                                                                             "real_gas"))
+    parser.add_argument("--fmu", type=Path, default=None, help="RotaryVaneCompressor.fmu to time (default: build "
+                                                                 "one into a temporary folder)")
     args = parser.parse_args(argv)
     settings = MapSettings(table_speed_rpm=OPERATING_RPM)
     speeds = np.linspace(0.1, 1.2, 8) * OPERATING_RPM
@@ -112,6 +147,22 @@ def main(argv=None):
                  "detailed rev-to-rev scatter [% ripple RMS]", "input power [%]", "power rev scatter [%]"], rows))
     heading(f"Cost per {STEP * 1e3:g} ms step at {OPERATING_RPM:g} rpm (median of {args.repeats})")
     print(table(["c [mm]", "detailed [us]", "table [us]", "ratio"], cost_rows))
+
+    with tempfile.TemporaryDirectory() as folder:
+        fmu = args.fmu
+        if fmu is None:
+            import subprocess
+            subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", folder], check=True,
+                           capture_output=True)
+            fmu = Path(folder) / "RotaryVaneCompressor.fmu"
+        rows = []
+        for clearance in (0.0, 5e-5):
+            costs = fmu_step_costs(fmu, 200, args.repeats, clearance, args.pressure_model)
+            rows.append([f"{1e3 * clearance:.2f}", f"{1e6 * costs['detailed']:.0f}",
+                         f"{1e6 * costs['periodic_map']:.0f}", f"{costs['detailed'] / costs['periodic_map']:.1f}"])
+    heading(f"FMU through fmpy's low-level doStep, h = {STEP * 1e3:g} ms, {OPERATING_RPM:g} rpm "
+            f"(median of {args.repeats})")
+    print(table(["c [mm]", "detailed [us/step]", "periodic_map [us/step]", "ratio"], rows))
 
 
 if __name__ == "__main__":
