@@ -87,13 +87,19 @@ def initial_speed_grid(operating_rpm: float, count: int = 8) -> np.ndarray:
     return np.linspace(0.1, 1.2, count) * operating_rpm
 
 
-def curvature_refinement(speeds: np.ndarray, figure: np.ndarray, room: int, tolerance: float = 2e-3) -> np.ndarray:
-    """Midpoints to add where a per-revolution figure curves: at each interior node the deviation of the figure
-    from the chord of its neighbours, |f_i - (f_{i-1} w + f_{i+1} (1-w))| / max|f|; the intervals on both sides of
-    the worst nodes above `tolerance` get a midpoint, at most `room` new speeds."""
-    scale = max(float(np.max(np.abs(figure))), 1e-300)
-    weight = (speeds[2:] - speeds[1:-1]) / (speeds[2:] - speeds[:-2])
-    deviation = np.abs(figure[1:-1] - (weight * figure[:-2] + (1.0 - weight) * figure[2:])) / scale
+def chord_deviation(speeds: np.ndarray, values, scale) -> np.ndarray:
+    """Per interior speed node i: the RMS over the angle (or the single figure) of v_i minus the chord of its
+    neighbours, v_i - (w v_{i-1} + (1 - w) v_{i+1}), w = (s_{i+1} - s_i)/(s_{i+1} - s_{i-1}), divided by `scale`:
+    what linear interpolation in speed would miss there."""
+    values = np.asarray(values, dtype=float).reshape(len(speeds), -1)
+    weight = ((speeds[2:] - speeds[1:-1]) / (speeds[2:] - speeds[:-2]))[:, None]
+    chord = weight * values[:-2] + (1.0 - weight) * values[2:]
+    return np.sqrt(np.mean((values[1:-1] - chord) ** 2, axis=1)) / scale
+
+
+def curvature_refinement(speeds: np.ndarray, deviation: np.ndarray, room: int, tolerance: float) -> np.ndarray:
+    """Midpoints to add where the values curve: the intervals on both sides of the interior nodes whose
+    `chord_deviation` exceeds `tolerance`, worst first, at most `room` new speeds."""
     new: list[float] = []
     for node in np.argsort(deviation)[::-1] + 1:
         if deviation[node - 1] < tolerance:
@@ -103,6 +109,20 @@ def curvature_refinement(speeds: np.ndarray, figure: np.ndarray, room: int, tole
             if len(new) < room and not any(math.isclose(middle, m) for m in new):
                 new.append(middle)
     return np.array(sorted(new))
+
+
+def refinement_speeds(table: "MapTable", room: int) -> np.ndarray:
+    """Midpoints where the per-revolution input power or mass flow curves by more than 0.2 % of its largest value,
+    or the torque waveform by more than 3 % of its ripple RMS (the accuracy the tables aim at)."""
+    speeds = table.speeds
+    torque = table.channels[TORQUE]
+    deviations = [(chord_deviation(speeds, torque, np.std(torque[1:-1], axis=1)), 0.03)]
+    for name in ("input_power", "discharge_mass_flow"):
+        values = table.figures[name]
+        if np.all(np.isfinite(values)):
+            deviations.append((chord_deviation(speeds, values, np.max(np.abs(values))), 2e-3))
+    deviation = np.max([d / tolerance for d, tolerance in deviations], axis=0)
+    return curvature_refinement(speeds, deviation, room, 1.0)
 
 
 # one speed point ---------------------------------------------------------------------------------------------
@@ -357,7 +377,8 @@ def build_map(params: CompressorParameters, speeds=None, *, operating_rpm: float
     """The periodic-map table of `params`, from the disk cache or built.
 
     speeds: grid [rpm]; default 8 speeds from 10 % to 120 % of `operating_rpm`, refined (up to `max_speeds`) with
-    midpoints where the input power or the discharge mass flow curves. client: a dask.distributed Client to fan
+    midpoints where the input power, the discharge mass flow or the torque waveform curves
+    (`refinement_speeds`). client: a dask.distributed Client to fan
     out on; else `workers` processes (default: the CPU count, 1 runs here).
     """
     settings = settings or MapSettings(table_speed_rpm=operating_rpm)
@@ -377,16 +398,10 @@ def build_map(params: CompressorParameters, speeds=None, *, operating_rpm: float
               f"{settings.warmup_revolutions} warm-up each) into {path}")
     points = _run_all(params, grid, settings, client, workers)
     if speeds is None:
-        table = table_from_points(points, {})
-        room = max_speeds - grid.size
-        added = set()
-        for name in ("input_power", "discharge_mass_flow"):
-            values = table.figures[name]
-            if np.all(np.isfinite(values)):
-                added.update(curvature_refinement(table.speeds, values, room - len(added)).tolist())
-        if added:
-            _progress(f"refining at {', '.join(f'{s:.0f}' for s in sorted(added))} rpm")
-            points += _run_all(params, np.array(sorted(added)), settings, client, workers)
+        added = refinement_speeds(table_from_points(points, {}), max_speeds - grid.size)
+        if added.size:
+            _progress(f"refining at {', '.join(f'{s:.0f}' for s in added)} rpm")
+            points += _run_all(params, added, settings, client, workers)
     table = table_from_points(points, dict(parameters=dataclasses.asdict(params),
                                            settings=dataclasses.asdict(settings), format=FORMAT_VERSION))
     table.save(folder, key)

@@ -13,7 +13,7 @@ import fmu_helpers as H
 from rotary_vane.mechanics.periodic_map import initial_speed_grid
 
 GRID_SPEED = float(initial_speed_grid(1500.0)[5])          # a speed of the default grid (about 1329 rpm)
-BETWEEN_SPEED = 1446.0                                   # between two grid speeds
+BETWEEN_SPEED = 1400.0                                   # between grid speeds (also after refinement)
 STEP = 2e-4
 SETTLE = 0.25                                            # s before the compared window
 

@@ -8,7 +8,8 @@ import pytest
 
 from rotary_vane.mechanics import CompressorParameters
 from rotary_vane.mechanics.periodic_map import (CHANNELS, FIGURES, PROJECT_DIR, TORQUE, MapSettings, MapTable,
-                                                build_map, cache_key, curvature_refinement)
+                                                build_map, cache_key, chord_deviation,
+                                                curvature_refinement)
 from rotary_vane.thermo.compile_cache import PROJECT_PACKAGES
 
 SAMPLES = 720
@@ -75,9 +76,15 @@ def test_revolution_integral_is_the_sum_of_cell_means():
 
 def test_curvature_refinement_adds_midpoints_only_where_it_curves():
     speeds = np.linspace(100.0, 800.0, 8)
-    assert curvature_refinement(speeds, 3.0 * speeds + 1.0, room=4).size == 0
+    line = chord_deviation(speeds, 3.0 * speeds + 1.0, 1.0)
+    assert np.allclose(line, 0.0, atol=1e-12) and curvature_refinement(speeds, line, 4, 1e-3).size == 0
     knee = np.minimum(speeds, 450.0)
-    added = curvature_refinement(speeds, knee, room=4)
+    deviation = chord_deviation(speeds, knee, 1.0)
+    assert deviation.tolist() == pytest.approx([0, 0, 25.0, 25.0, 0, 0], abs=1e-12)
+    # waveforms: the RMS over the angle of the same chord error
+    waves = np.outer(knee, np.ones(4)) * np.array([1.0, -1.0, 1.0, -1.0])
+    assert chord_deviation(speeds, waves, 1.0) == pytest.approx(deviation, abs=1e-12)
+    added = curvature_refinement(speeds, deviation, 4, 1.0)
     assert added.tolist() == [350.0, 450.0, 550.0]     # both nodes beside the knee (400, 500) deviate
 
 
