@@ -64,7 +64,7 @@ def waveform_error(detailed, mapped, speed):
 def test_periodic_map_matches_detailed_per_revolution_and_in_waveform(built_fmus, env, clearance):
     cases = [dict(speed=s, c=clearance, model="polytropic") for s in (GRID_SPEED, BETWEEN_SPEED)]
     if clearance == 0.0:
-        cases.append(dict(speed=GRID_SPEED, c=0.0, model="real_gas"))
+        cases += [dict(speed=s, c=0.0, model="real_gas") for s in (GRID_SPEED, BETWEEN_SPEED)]
     for result in compare(built_fmus, env, cases):
         case, detailed, mapped = result["case"], result["rows"]["detailed"], result["rows"]["periodic_map"]
         last_d, last_m = detailed[-1], mapped[-1]
