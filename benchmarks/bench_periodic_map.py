@@ -19,8 +19,7 @@ from rotary_vane.mechanics import CompressorParameters, Simulation, constant_spe
 from rotary_vane.mechanics.periodic_map import TORQUE, MapSettings, build_map, run_speed_point
 from rotary_vane.mechanics.speed import RPM
 
-sys.path.insert(0, str(Path(__file__).parent))
-from report import heading, table  # noqa: E402
+from report import heading, table  # benchmarks/ is the script's folder
 
 OPERATING_RPM = 1500.0
 STEP = 1e-3
