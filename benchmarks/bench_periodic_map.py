@@ -6,7 +6,6 @@ revolution-to-revolution scatter of the detailed model itself).
 Usage:  python benchmarks/bench_periodic_map.py [--repeats 3] [--pressure-model polytropic]
 """
 import argparse
-import math
 import statistics
 import sys
 import tempfile

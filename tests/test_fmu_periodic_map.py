@@ -3,7 +3,6 @@ low-level API in a host process: per-revolution figures within 0.5 %, the torque
 ripple's RMS (or, with clearance, within the detailed model's own revolution-to-revolution scatter, which the
 table records), and a bad fidelity refused at initialization."""
 import json
-import math
 from string import Template
 
 import numpy as np
@@ -184,7 +183,6 @@ def test_start_up_coupled_to_the_motor_matches_detailed(built_fmus, tmp_path):
 
 
 RAMP = """
-import math
 import fmu_helpers as H
 out = {}
 def speed(t):       # the thesis start-up: cycloidal 0 -> 1500 rpm in 0.4 s
