@@ -1,4 +1,4 @@
-"""Benchmark of the mechanics time loop (PERFORMANCE.md, SPEC §8): prints figures, asserts nothing.
+"""Benchmark of the mechanics time loop (PERFORMANCE.md, docs/model.md §8): prints figures, asserts nothing.
 
 Run from anywhere:  python benchmarks/bench_mechanics.py [--revolutions N] [--repeats R] [--quick]
 
@@ -142,7 +142,7 @@ def report_numba(results: list[dict], revolutions: int, repeats: int) -> None:
 
 # 2. scipy DOP853 on the same right-hand side ------------------------------------------------------------
 def tolerance_vector():
-    """atol of SPEC §8.2: positions 1e-9 m, angle 1e-8 rad, velocities 1e-6 m/s, omega3 1e-4 rad/s, works 1e-6 J."""
+    """atol of docs/model.md §8.2: positions 1e-9 m, angle 1e-8 rad, velocities 1e-6 m/s, omega3 1e-4 rad/s, works 1e-6 J."""
     from rotary_vane.mechanics.layout import STATE_SIZE
     return np.array([1e-9, 1e-9, 1e-8, 1e-6, 1e-6, 1e-4] + [1e-6] * (STATE_SIZE - 6))
 

@@ -1,9 +1,9 @@
-"""Benchmark of the real-gas property table (SPEC §7.3; PERFORMANCE.md "Real-gas properties"): prints figures,
+"""Benchmark of the real-gas property table (docs/model.md §7.3; PERFORMANCE.md "Real-gas properties"): prints figures,
 asserts nothing.
 
 Run from anywhere:  python benchmarks/bench_properties.py [--quick] [--calls N]
 
-1. Table evaluation inside numba (R134a, SPEC §7.1 envelope): ns per `table_properties` call over N random states
+1. Table evaluation inside numba (R134a, docs/model.md §7.1 envelope): ns per `table_properties` call over N random states
    (random access over the whole table) and along a chamber-like path (neighbouring states, as in the time loop),
    `table_status` alone, and the bare loop; the cost of 2 chambers x 6 stages per step.
 2. CoolProp HEOS from Python: AbstractState.update(DmassT) + p, h, c_v, (dp/dT)_rho, and `Fluid.properties`.
@@ -110,7 +110,7 @@ def numba_costs(fluid: Fluid, property_table, envelope, calls: int, rng) -> dict
 
 
 def report_numba(costs: dict, calls: int) -> None:
-    heading(f"1. table evaluation inside numba, R134a (SPEC §7.1 envelope), {calls:.0e} states, best of 5")
+    heading(f"1. table evaluation inside numba, R134a (docs/model.md §7.1 envelope), {calls:.0e} states, best of 5")
     rows = [["table_properties, random states over the envelope", f"{1e9 * costs['random']:.1f}",
              f"{100 * costs['refused_random']:.0f} %"],
             ["table_properties, chamber-like path", f"{1e9 * costs['path']:.1f}",

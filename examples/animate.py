@@ -1,10 +1,10 @@
 """Animations of the single-vane compressor: a 2D section (GIF, and MP4 when an ffmpeg is found) and a 3D page.
 
 The compressor is simulated at constant speed (library `Simulation`); after `settle` revolutions that let the
-start transient die out, the vane pose (x, y, phi of its centre of mass G, SPEC §1.2) and the output row are
+start transient die out, the vane pose (x, y, phi of its centre of mass G, docs/model.md §1.2) and the output row are
 taken at equally spaced frame times.
 
-2D frame (SPEC §1-§2): stator bore S(u) (SPEC §2.5), rotor disc with its slot (§2.2), the vane at its simulated
+2D frame (docs/model.md §1-§2): stator bore S(u) (docs/model.md §2.5), rotor disc with its slot (§2.2), the vane at its simulated
 pose (rectangle + semicircular tip, §2.1), the leading and trailing chambers of the active lobe filled with a
 colour for their pressure (idle lobes at suction pressure, §1.1), the normal contact forces on the vane as arrows
 at their contact points (§4), and a time / rotor-angle readout.
@@ -83,7 +83,7 @@ class Frames:
     params: CompressorParameters
     rpm: float
     time: np.ndarray              # (n,) [s]
-    pose: np.ndarray              # (n, 3): x_G, y_G [m], phi3 [rad] (SPEC §1.2)
+    pose: np.ndarray              # (n, 3): x_G, y_G [m], phi3 [rad] (docs/model.md §1.2)
     outputs: np.ndarray           # (n, number of outputs), columns named in mechanics.layout.OUTPUT_NAMES
 
     def column(self, name: str) -> np.ndarray:
@@ -124,7 +124,7 @@ def drawn_machine(params: CompressorParameters, exaggeration: float) -> Machine:
     """The machine as drawn: clearances c_R, c_S multiplied by the exaggeration factor k >= 1.
 
     Built through CompressorParameters, so the drawn slot width w = t + k c_R, mouth radius, envelope offset
-    d = rho + k c_S and the regularity of the drawn stator (SPEC §2.2, §2.5) are checked as for a real machine.
+    d = rho + k c_S and the regularity of the drawn stator (docs/model.md §2.2, §2.5) are checked as for a real machine.
     """
     _require("exaggeration", exaggeration, _is_number(exaggeration) and exaggeration >= 1.0, "a finite factor >= 1")
     try:
@@ -160,7 +160,7 @@ def _rotate(points: np.ndarray, angle: float) -> np.ndarray:
 
 
 def vane_outline(m: Machine, pose: np.ndarray, arc_points: int = 25) -> np.ndarray:
-    """Stadium-ended vane (SPEC §2.1) in the global frame: bottom corners B-, J-, tip arc, J+, B+ (closed shape).
+    """Stadium-ended vane (docs/model.md §2.1) in the global frame: bottom corners B-, J-, tip arc, J+, B+ (closed shape).
 
     Body frame: flat faces eta = +-t/2 for xi_B <= xi <= xi_T, tip arc T + rho (cos psi, sin psi), |psi| <= pi/2.
     """
@@ -172,7 +172,7 @@ def vane_outline(m: Machine, pose: np.ndarray, arc_points: int = 25) -> np.ndarr
 
 
 def rotor_outline(m: Machine, theta: float, arc_points: int = 180) -> np.ndarray:
-    """Rotor disc minus its slot (SPEC §2.2): rim arc from E+ round to E-, then the slot walls and bottom.
+    """Rotor disc minus its slot (docs/model.md §2.2): rim arc from E+ round to E-, then the slot walls and bottom.
 
     Rotor frame: E+- = (R_m, +-w/2), slot bottom at xi = r_sb; the outline is star-shaped about O.
     """
@@ -184,23 +184,23 @@ def rotor_outline(m: Machine, theta: float, arc_points: int = 180) -> np.ndarray
 
 
 def slot_outline(m: Machine, theta: float) -> np.ndarray:
-    """The slot as a rectangle r_sb <= xi <= R_m, |eta| <= w/2 in the rotor frame (SPEC §2.2), rotated by theta."""
+    """The slot as a rectangle r_sb <= xi <= R_m, |eta| <= w/2 in the rotor frame (docs/model.md §2.2), rotated by theta."""
     corners = np.array([[m.slot_bottom_radius, -m.half_slot_width], [m.mouth_radius, -m.half_slot_width],
                         [m.mouth_radius, m.half_slot_width], [m.slot_bottom_radius, m.half_slot_width]])
     return _rotate(corners, theta)
 
 
 def stator_curve(m: Machine, parameters: np.ndarray) -> np.ndarray:
-    """Stator bore points S(u) = C(u) + d n(u) (SPEC §2.5) at the given curve parameters u."""
+    """Stator bore points S(u) = C(u) + d n(u) (docs/model.md §2.5) at the given curve parameters u."""
     law = _law(m)
     return np.array([stator_point(u, *law, m.base_radius, m.envelope_offset)[:2] for u in parameters])
 
 
 def chamber_polygons(m: Machine, theta: float, tip_centre: np.ndarray, arc_points: int = 60):
-    """Leading and trailing chambers of the active lobe as polygons (SPEC §1.1), for the vane tip centre T.
+    """Leading and trailing chambers of the active lobe as polygons (docs/model.md §1.1), for the vane tip centre T.
 
     Lobe j spans the valleys u_j = 2 pi j/z <= theta < u_j+1. The vane meets the stator at u*, the closest
-    stator point to T (SPEC §2.6). Leading: T, stator u* -> u_j+1, rotor rim u_j+1 -> theta. Trailing: T, rotor
+    stator point to T (docs/model.md §2.6). Leading: T, stator u* -> u_j+1, rotor rim u_j+1 -> theta. Trailing: T, rotor
     rim theta -> u_j, stator u_j -> u*. Both share the edge from T to the slot mouth, which the vane covers;
     together they fill the lobe between rotor and stator.
     """
@@ -222,14 +222,14 @@ def chamber_polygons(m: Machine, theta: float, tip_centre: np.ndarray, arc_point
 
 @dataclass(frozen=True)
 class ContactForce:
-    region: int                   # 1..6 (SPEC §1.3)
+    region: int                   # 1..6 (docs/model.md §1.3)
     point: np.ndarray             # application point on the vane (global frame) [m]
     normal: np.ndarray            # unit normal from the other body into the vane
     force: float                  # normal force magnitude [N]
 
 
 def contact_forces(m: Machine, pose: np.ndarray, row: np.ndarray) -> list[ContactForce]:
-    """The active contacts of one output row with their points and normals from the detection functions (SPEC §4).
+    """The active contacts of one output row with their points and normals from the detection functions (docs/model.md §4).
 
     Regions c1/c2 slot mouth, c3/c4 vane bottom corners, c5/c6 tip on stator (one of them at a time).
     """

@@ -1,11 +1,11 @@
-"""Mechanics demo: one sliding vane, z-lobe stator, constant speed, several clearances (SPEC §3.4, §4.6, §6.4, §10).
+"""Mechanics demo: one sliding vane, z-lobe stator, constant speed, several clearances (docs/model.md §3.4, §4.6, §6.4, §10).
 
 For each clearance c (slot clearance c_R = stator clearance c_S = c, as in the thesis) the script runs the
 compressor at constant speed for a few revolutions, summarises the last full revolution and compares the runs:
 
 * a table (printed and written to summary.csv): mean input, output, friction and damping power, mechanical
   efficiency, the energy and torque-balance checks, the peak normal force per contact region c1..c6 and the
-  distinct contact modes (dwell-filtered, SPEC §4.6);
+  distinct contact modes (dwell-filtered, docs/model.md §4.6);
 * plots over the last full revolution against the rotor angle (0-360 deg), one curve per clearance:
   kinematics.png, contact_forces.png, torques.png, contact_modes.png (cf. thesis Figs 5.8-5.32).
 
@@ -37,7 +37,7 @@ from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
 from rotary_vane.mechanics.parameters import INTEGRATORS  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary, revolutions  # noqa: E402
 
-REGIONS = range(1, 7)                      # contact regions c1..c6 (SPEC §1.3)
+REGIONS = range(1, 7)                      # contact regions c1..c6 (docs/model.md §1.3)
 
 
 # command line --------------------------------------------------------------------------------------------
@@ -143,8 +143,8 @@ def print_table(runs: list[Run]) -> None:
         cells, labels = table_row(run)
         text = "  ".join(f"{fmt.format(value):>{width}}" for (_, width, fmt), value in zip(COLUMNS, cells))
         print(f"{text}  {labels}")
-    print("E-resid: energy balance residual / W_in (SPEC §6.4); "
-          "T-bal: |<T_d> - <lambda3 + M_gas,stator>| / <T_d> (SPEC §11 T11); T-bal+gaps adds the pressure "
+    print("E-resid: energy balance residual / W_in (docs/model.md §6.4); "
+          "T-bal: |<T_d> - <lambda3 + M_gas,stator>| / <T_d> (docs/model.md §11 T11); T-bal+gaps adds the pressure "
           "moment on the tip, valley and slot-mouth gaps that no body carries")
 
 
@@ -178,7 +178,7 @@ def print_gas_comparison(pairs: list[tuple[Run, Run, dict]]) -> None:
                             else f"{fmt.format(value):>{width}}" for (_, width, fmt), value in zip(GAS_COLUMNS, cells)))
     print("P_ind: -sum p dV/dt of the two chambers; m_dot: discharge mass flow; T_dis: mixed discharge temperature; "
           "eta_v: delivered mass / (rho_s z L A_lobe); eta_is: m_dot (h_2s - h_1) / <P_in>; residuals: chamber "
-          "mass / delivered mass and chamber energy / compression work over the revolution (SPEC §11 T19)")
+          "mass / delivered mass and chamber energy / compression work over the revolution (docs/model.md §11 T19)")
 
 
 def plot_pv_diagram(runs: list[Run], path: Path) -> None:
@@ -221,7 +221,7 @@ def write_csv(runs: list[Run], path: Path) -> None:
 
 # plots -------------------------------------------------------------------------------------------------
 def nominal_kinematics(params: CompressorParameters, rpm: float, angle_deg: np.ndarray):
-    """No-clearance nominal s [m], s' omega [m/s], s'' omega^2 [m/s^2] at constant speed (SPEC §3.4).
+    """No-clearance nominal s [m], s' omega [m/s], s'' omega^2 [m/s^2] at constant speed (docs/model.md §3.4).
 
     The reported revolution starts at a whole multiple of 2 pi, so the angle within it is the rotor angle."""
     omega = rpm * 2.0 * math.pi / 60.0

@@ -1,6 +1,6 @@
 """The thesis's start-up case through the compressor FMU and fmpy: speed ramp from rest, vane kinematics vs time.
 
-The shaft speed follows the cycloidal ramp of SPEC §3.2 from rest to omega_ss over t_r (default 1500 rpm over
+The shaft speed follows the cycloidal ramp of docs/model.md §3.2 from rest to omega_ss over t_r (default 1500 rpm over
 0.4 s), then stays constant; the run covers 0-1.2 s (thesis Fig. 5.2):
 
     t < t_r:  omega(t) = omega_ss (t/t_r - sin(2 pi t/t_r)/(2 pi)),        t >= t_r:  omega(t) = omega_ss
@@ -9,9 +9,9 @@ The FMU input `shaft_speed` [rpm] is, with interpolate_speed = true (the FMU's d
 speed at the END of each communication step: the FMU moves the speed linearly from its last value to the input
 over the step. fmpy applies an input signal at the START of each step (it sets u(t_k) before doStep(t_k, h)), so
 the signal given to fmpy carries omega(t_k + h) at t_k. The rotor then turns through the trapezoidal integral of
-the sampled ramp (the test checks the FMU's shaft_angle against the closed-form angle of SPEC §3.2).
+the sampled ramp (the test checks the FMU's shaft_angle against the closed-form angle of docs/model.md §3.2).
 
-Plots (thesis Figs 5.33-5.47): s_r, v_r, a_r, v_theta, a_theta (SPEC §3.4) vs time over 0-0.5 s, 0-0.4 s and
+Plots (thesis Figs 5.33-5.47): s_r, v_r, a_r, v_theta, a_theta (docs/model.md §3.4) vs time over 0-0.5 s, 0-0.4 s and
 0.4-0.5 s, one PNG per window (startup_0.0-0.5s.png, ...). v_theta and a_theta are plotted when the FMU has the
 outputs vane_tangential_velocity and vane_tangential_acceleration; otherwise their panels say so. Also written:
 result.csv (every output at every communication point) and a table of peak values per window (printed and in
@@ -48,7 +48,7 @@ QUANTITIES = (
 
 def parse_arguments(argv=None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        description="Start-up of RotaryVaneCompressor.fmu with fmpy: cycloidal speed ramp from rest (SPEC §3.2), "
+        description="Start-up of RotaryVaneCompressor.fmu with fmpy: cycloidal speed ramp from rest (docs/model.md §3.2), "
                     "vane kinematics vs time over 0-0.5, 0-0.4 and 0.4-0.5 s (thesis Figs 5.33-5.47).",
         formatter_class=harness.HelpFormatter)
     parser.add_argument("--speed", type=number_parser("rpm"), default=1500.0,
@@ -71,7 +71,7 @@ def parse_arguments(argv=None) -> argparse.Namespace:
 
 
 def ramp_speed(t, speed, ramp_time):
-    """omega(t) of the cycloidal ramp (SPEC §3.2), in the unit of `speed`; t may be an array."""
+    """omega(t) of the cycloidal ramp (docs/model.md §3.2), in the unit of `speed`; t may be an array."""
     t = np.asarray(t, dtype=float)
     u = np.minimum(t / ramp_time, 1.0)
     return speed * (u - np.sin(2.0 * math.pi * u) / (2.0 * math.pi))

@@ -1,17 +1,17 @@
-"""Clearance study (thesis ch. 5; SPEC §4.6, §6.4, §10-§11): c_R = c_S in {0, 0.02, 0.05, 0.1, 0.2} mm at 1000,
-1500 and 2000 rpm, z = 3, Level 0.5 pressure table (the library's default, SPEC §6.1).
+"""Clearance study (thesis ch. 5; docs/model.md §4.6, §6.4, §10-§11): c_R = c_S in {0, 0.02, 0.05, 0.1, 0.2} mm at 1000,
+1500 and 2000 rpm, z = 3, Level 0.5 pressure table (the library's default, docs/model.md §6.1).
 
-Each point runs the library's `Simulation` at constant speed from the nominal pose (SPEC §3.3) for 4 revolutions
+Each point runs the library's `Simulation` at constant speed from the nominal pose (docs/model.md §3.3) for 4 revolutions
 and reports the last full one (3 settling revolutions; `--quick`: 3 and 2), with `mechanics.performance` (means
-from the work integrals, SPEC §6.4; dwell-filtered contact modes, SPEC §4.6). Points run in a process pool.
+from the work integrals, docs/model.md §6.4; dwell-filtered contact modes, docs/model.md §4.6). Points run in a process pool.
 
 Written to `<out>/clearance/` (and printed):
 * powers.md / powers.csv: mean input, output, friction and damping power, mechanical efficiency, energy-balance
   residual, peak contact force, peak tilt and distinct modes per point;
-* kinematics.md: max / min / time-rms of s_r, v_r, a_r, v_theta, a_theta (SPEC §3.4) and tilt per clearance;
+* kinematics.md: max / min / time-rms of s_r, v_r, a_r, v_theta, a_theta (docs/model.md §3.4) and tilt per clearance;
 * contact_forces.md: peak normal force per region c1..c6 and the time-mean of the summed normal force;
 * constraint_moments.md: max / mean / min of the driving torque T_d = -lambda6 and of the stator contact moment
-  lambda3, and the mean stator reaction lambda3 + M_gas,stator that balances <T_d> (SPEC §6.2, T11);
+  lambda3, and the mean stator reaction lambda3 + M_gas,stator that balances <T_d> (docs/model.md §6.2, T11);
 * contact_modes.md: per speed, the dwell of every contact mode (label from the bit mask, bit k-1 = region ck) at
   each clearance and the count of modes dwelling at least tau_min;
 * powers_vs_clearance.png, powers_all_speeds.png, efficiency_vs_clearance.png (cf. thesis Figs 5.48-5.54);
@@ -127,7 +127,7 @@ POWER_HEADERS = ["<P_in> [W]", "<P_out> [W]", "<P_fric> [W]", "<P_damp> [W]", "e
 
 
 def power_cells(summary: WindowSummary) -> list[str]:
-    """The power/efficiency summary of one point, in POWER_HEADERS order (SPEC §6.4, §4.6)."""
+    """The power/efficiency summary of one point, in POWER_HEADERS order (docs/model.md §6.4, §4.6)."""
     return [f"{summary.input_power:.2f}", f"{summary.output_power:.2f}", f"{summary.friction_power:.2f}",
             f"{summary.damping_power:.3f}", f"{100 * summary.mechanical_efficiency:.2f}",
             f"{100 * summary.energy_residual:+.4f}", f"{max(summary.max_normal_force):.1f}",
@@ -140,7 +140,7 @@ def powers_table(runs: dict) -> str:
                           "Mean powers and efficiency over the last revolution")
 
 
-KINEMATICS = (  # (symbol, history column, scale, unit, format), SPEC §3.4
+KINEMATICS = (  # (symbol, history column, scale, unit, format), docs/model.md §3.4
     ("s_r", "vane_displacement", 1e3, "mm", "{:.4f}"),
     ("v_r", "vane_radial_velocity", 1.0, "m/s", "{:.3f}"),
     ("a_r", "vane_radial_acceleration", 1.0, "m/s^2", "{:.0f}"),
@@ -324,11 +324,11 @@ def captions(runs: dict, speeds, clearances) -> dict[str, str]:
         "efficiency_vs_clearance.png":
             "Mechanical efficiency vs clearance, all speeds: " + "; ".join(
                 f"at {rpm:g} rpm it {trend(eta[rpm])} ({span(eta[rpm], '{:.2f}')} %)" for rpm in speeds) + ".",
-        "powers.md": "Every point's mean powers, efficiency, energy-balance residual (SPEC §6.4: the work "
+        "powers.md": "Every point's mean powers, efficiency, energy-balance residual (docs/model.md §6.4: the work "
                      "integrals close to this fraction of W_in), peak contact force and tilt, distinct modes.",
         "powers.csv": "The power table as CSV, with each point's distinct mode labels and wall time.",
         "kinematics.md":
-            "Vane kinematics of SPEC §3.4 per clearance and speed (cf. thesis table 5.4); from c = "
+            "Vane kinematics of docs/model.md §3.4 per clearance and speed (cf. thesis table 5.4); from c = "
             f"{clearances[0]:g} to {clearances[-1]:g} mm the time-rms of a_theta " + "; ".join(
                 f"{trend(rms_a_theta[rpm])} at {rpm:g} rpm ({span(rms_a_theta[rpm], '{:.0f}')} m/s^2)"
                 for rpm in speeds) + "; the peak tilt " + ", ".join(
@@ -345,7 +345,7 @@ def captions(runs: dict, speeds, clearances) -> dict[str, str]:
             + " with clearance; the mean stator reaction lambda3 + M_gas,stator balances it to within "
             f"{100 * max(run.summary.torque_balance_error for run in runs.values()):.1f} % over all points, "
             f"{100 * max(run.summary.torque_balance_error_with_gaps for run in runs.values()):.1f} % with the "
-            "pressure moment on the tip, valley and slot-mouth gaps that no body carries (SPEC §11 T11).",
+            "pressure moment on the tip, valley and slot-mouth gaps that no body carries (docs/model.md §11 T11).",
         "contact_modes.md": "Dwell of each contact mode per clearance, one table per speed (cf. thesis tables "
                             "5.7-5.9); distinct modes per clearance: " + "; ".join(
                                 f"{rpm:g} rpm {', '.join(map(str, modes[rpm]))}" for rpm in speeds) + ".",

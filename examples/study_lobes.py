@@ -1,15 +1,15 @@
-"""Lobe study (thesis ch. 5, Figs 5.56-5.67; SPEC §2.5, §3.4, §6.4): z = 3, 5, 7, 9 stator lobes at c_R = c_S =
+"""Lobe study (thesis ch. 5, Figs 5.56-5.67; docs/model.md §2.5, §3.4, §6.4): z = 3, 5, 7, 9 stator lobes at c_R = c_S =
 0.05 mm and 1500 rpm, Level 0.5 pressure table, default geometry (stroke 5 mm, harmonic law).
 
-Per z, two runs of the library's `Simulation` from the nominal pose (SPEC §3.3), both settling 3 revolutions
+Per z, two runs of the library's `Simulation` from the nominal pose (docs/model.md §3.3), both settling 3 revolutions
 (`--quick`: 2): one keeps every accepted step and gives the power/efficiency summary of the last full revolution
 (as the clearance study); the other advances to equally spaced times over the next revolution and records the vane
 pose (x_G, y_G, phi3) there, where the integrator lands exactly (examples/animate.py `simulate_frames`).
 
 From the poses: the vane centre of mass G in the fixed frame and in the rotor frame as its offset from the nominal
-position (SPEC §3.3: untilted, centred in the slot, tip centre at radius R0 + s(theta) + c_S, i.e. on the stator),
+position (docs/model.md §3.3: untilted, centred in the slot, tip centre at radius R0 + s(theta) + c_S, i.e. on the stator),
 radial (along e_r(theta)) and tangential (along e_theta(theta)); the tip centre T = G + xi_T e_xi and the tip
-semicircle against the stator contour S(u) (SPEC §2.5), enlarged at a valley.
+semicircle against the stator contour S(u) (docs/model.md §2.5), enlarged at a valley.
 
 Written to `<out>/lobes/` (and printed): lobes.md (per z: stator regularity margin min(1 + d kappa_C), the powers,
 efficiency and modes of the clearance study's table, the largest offsets), vane_centre_z<z>.png,
@@ -59,7 +59,7 @@ ZOOM_CIRCLES = 11                          # tip semicircles drawn in the enlarg
 class LobeRun:
     lobes: int
     params: CompressorParameters
-    regularity: float             # min over a lobe of 1 + d kappa_C (SPEC §2.5), > 0 for a regular stator
+    regularity: float             # min over a lobe of 1 + d kappa_C (docs/model.md §2.5), > 0 for a regular stator
     summary: WindowSummary        # the last full revolution of the run that keeps its history
     frames: Frames                # sampled poses and output rows over the following revolution
     wall_time: float
@@ -102,8 +102,8 @@ def law_of(m: Machine) -> tuple:
 
 
 def trajectory(m: Machine, frames: Frames) -> Trajectory:
-    """Rotor-frame offsets of G from the nominal pose of SPEC §3.3: G_nominal = (R0 + s(theta) + c_S - xi_T) e_r;
-    the tip circle's point nearest the stator, T + rho n(u*), with u* the closest pitch-curve point (SPEC §2.6)."""
+    """Rotor-frame offsets of G from the nominal pose of docs/model.md §3.3: G_nominal = (R0 + s(theta) + c_S - xi_T) e_r;
+    the tip circle's point nearest the stator, T + rho n(u*), with u* the closest pitch-curve point (docs/model.md §2.6)."""
     theta = frames.column("rotor_angle")
     centre = frames.pose[:, :2]
     phi = frames.pose[:, 2]
@@ -207,14 +207,14 @@ def plot_vane_centre(run: LobeRun, m: Machine, path_data: Trajectory, path: Path
     offsets.legend(fontsize=8, loc="upper right", ncol=3)
     angle_axis(offsets, run.lobes)
     fig.suptitle(f"Vane centre of mass over one revolution: {title_of(run)}\n"
-                 f"nominal position: untilted, centred in the slot, tip centre at R0 + s(θ) + c_S (SPEC §3.3)")
+                 f"nominal position: untilted, centred in the slot, tip centre at R0 + s(θ) + c_S (docs/model.md §3.3)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
 def tip_arc(m: Machine, tip: np.ndarray, vane_angle: float, points: int = 91) -> np.ndarray:
-    """The vane's tip semicircle T + rho e(phi3 + psi), |psi| <= pi/2 (SPEC §2.1), in the fixed frame."""
+    """The vane's tip semicircle T + rho e(phi3 + psi), |psi| <= pi/2 (docs/model.md §2.1), in the fixed frame."""
     psi = vane_angle + np.linspace(-0.5 * math.pi, 0.5 * math.pi, points)
     return tip + m.tip_radius * np.column_stack([np.cos(psi), np.sin(psi)])
 
@@ -353,7 +353,7 @@ def captions(runs: list[LobeRun], paths: list[Trajectory]) -> dict[str, str]:
             f"z = {lobes[0]} -> {lobes[-1]}), friction power {trend(friction)} ({span(friction)} W).",
         "lobes.md":
             f"Every z runs with the default geometry (stroke 5 mm): the stator regularity margin min(1 + d kappa_C) "
-            f"= {regularity} for z = {z_text} stays > 0 (SPEC §2.5), so nothing was changed. Same power columns "
+            f"= {regularity} for z = {z_text} stays > 0 (docs/model.md §2.5), so nothing was changed. Same power columns "
             f"as the clearance study, plus the largest offsets of G and tip penetration.",
     }
     for run, p in zip(runs, paths):

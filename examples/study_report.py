@@ -90,11 +90,11 @@ def write_report(root: Path) -> Path:
     done = ", ".join(m["study"] for m in manifests)
     missing = [name for name in STUDY_ORDER if name not in {m["study"] for m in manifests}]
     intro = ("# Design studies of the single-vane rotary compressor\n\n"
-             "After K.-M. Huang's thesis (SPEC §10-§11): every figure and table below was written by the study "
+             "After K.-M. Huang's thesis (docs/model.md §10-§11): every figure and table below was written by the study "
              f"scripts in `examples/` from runs of the library (`mechanics.Simulation`). Studies included: {done}."
              + (f" Not run yet: {', '.join(missing)}." if missing else "")
              + " Powers are means over the last full revolution after the settling revolutions, from the work "
-               "integrals (SPEC §6.4); contact modes are 6-bit masks, bit k-1 = region ck in contact (SPEC §4.6).\n")
+               "integrals (docs/model.md §6.4); contact modes are 6-bit masks, bit k-1 = region ck in contact (docs/model.md §4.6).\n")
     path = root / REPORT
     path.write_text("\n".join([intro, *(study_section(root, m) for m in manifests)]))
     return path

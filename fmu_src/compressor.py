@@ -26,11 +26,11 @@ END_OF_STEP = {
     "stator_reaction_moment": ("N.m", "stator reaction moment lambda3 (contact + gas) at the end of the step"),
     **{f"contact_force_{k}": ("N", f"normal force in contact region c{k} at the end of the step")
        for k in range(1, 7)},
-    "vane_displacement": ("m", "vane radial displacement s_r (SPEC §3.4) at the end of the step"),
+    "vane_displacement": ("m", "vane radial displacement s_r (docs/model.md §3.4) at the end of the step"),
     "vane_velocity": ("m/s", "vane radial velocity v_r at the end of the step"),
     "vane_acceleration": ("m/s2", "vane radial acceleration a_r at the end of the step"),
     "vane_tilt": ("rad", "vane tilt phi3 - theta at the end of the step"),
-    "vane_tangential_velocity": ("m/s", "vane tangential velocity v_theta (SPEC §3.4) at the end of the step"),
+    "vane_tangential_velocity": ("m/s", "vane tangential velocity v_theta (docs/model.md §3.4) at the end of the step"),
     "vane_tangential_acceleration": ("m/s2", "vane tangential acceleration a_theta at the end of the step"),
     "leading_chamber_pressure": ("Pa", "leading-chamber pressure at the end of the step"),
     "trailing_chamber_pressure": ("Pa", "trailing-chamber pressure at the end of the step"),
@@ -75,7 +75,7 @@ RUN_PARAMETERS = {
 
 
 class CompressorSlave(GuardedSlave):
-    """Single sliding-vane rotary compressor with clearance, contact and friction (SPEC §1-§8)."""
+    """Single sliding-vane rotary compressor with clearance, contact and friction (docs/model.md §1-§8)."""
 
     description = ("Single sliding-vane rotary compressor with vane clearance, Hertz contact with hysteresis "
                    "damping and regularised friction; shaft speed in, driving torque and powers out.")

@@ -1,4 +1,4 @@
-"""Vane dynamics with clearance: geometry, contact, equations of motion and the time loop (SPEC §1-§6, §8)."""
+"""Vane dynamics with clearance: geometry, contact, equations of motion and the time loop (docs/model.md §1-§6, §8)."""
 from pathlib import Path
 
 from rotary_vane.thermo.compile_cache import install as _install_compile_cache

@@ -1,4 +1,4 @@
-"""Leading (L) and trailing (T) chamber volumes of the active lobe and their rates (SPEC §7.2, §6.2, §6.4).
+"""Leading (L) and trailing (T) chamber volumes of the active lobe and their rates (docs/model.md §7.2, §6.2, §6.4).
 
 Volumes follow from Green's theorem, A = 1/2 oint (x dy - y dx) on a counter-clockwise boundary, times the
 axial length L. The trailing chamber T of lobe k is bounded by
@@ -8,7 +8,7 @@ axial length L. The trailing chamber T of lobe k is bounded by
   4. the slot-side path from J- to the slot edge E-: the exposed trailing face J- -> F- down to the level of E-
      (if xi_T > xi_E-), then either the slot-mouth gap -> E- or, when the junction is recessed below the mouth
      (r_J- < R_m), the gap -> W- (slot-wall point at the junction radius) and the slot wall W- -> E- (the
-     rotor crescent of SPEC §6.2);
+     rotor crescent of docs/model.md §6.2);
   5. the rotor arc from E- (polar angle theta - alpha_m, alpha_m = atan2(w/2, R_m)) back to the valley,
      clockwise: 1/2 R_r^2 (u_k - theta + alpha_m);
   6. the valley gap, the radial segment from R_r to R_r + c_S at u_k (fixed, no Green term).
@@ -19,12 +19,12 @@ the dead volume.
 
 The rate of a volume is the normal velocity of its boundary, integrated over it (Reynolds transport). On the
 wetted vane surfaces and the wetted slot wall this is the mechanical power of a unit pressure on them, i.e. the
-SPEC §6.2 resultants of `gas_loads` at p_sigma = 1 with all other pressures 0 (SPEC §7.2); the stator and the
+docs/model.md §6.2 resultants of `gas_loads` at p_sigma = 1 with all other pressures 0 (docs/model.md §7.2); the stator and the
 rotor circle sweep nothing. The gaps (tip gap, slot-mouth gaps) carry no load but move: their swept area
 1/2 (v_P + v_Q) x (Q - P) per segment P -> Q is the gap term, zero when the gaps are closed (c_S = c_R = 0 on
 the nominal path). Hence
   dV_sigma/dt = (unit-pressure power on sigma's wetted vane and rotor surfaces) + gap_sigma,
-  P_gas = sum_sigma p_sigma (dV_sigma/dt - gap_sigma)                         (SPEC §6.4, exact).
+  P_gas = sum_sigma p_sigma (dV_sigma/dt - gap_sigma)                         (docs/model.md §6.4, exact).
 """
 import math
 
@@ -43,7 +43,7 @@ PIECEWISE_NODES, PIECEWISE_WEIGHTS = np.polynomial.legendre.leggauss(24)
 
 @njit(cache=True)
 def _steiner_integrand(phase, m):
-    """1/2 r^2 + d N(u), r = R0 + s(u), N = sqrt(r^2 + r'^2): the non-exact part of 1/2 S x S' (SPEC §2.5)."""
+    """1/2 r^2 + d N(u), r = R0 + s(u), N = sqrt(r^2 + r'^2): the non-exact part of 1/2 S x S' (docs/model.md §2.5)."""
     s, s1, _, _ = displacement(phase, m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell)
     r = m.base_radius + s
     return 0.5 * r * r + m.envelope_offset * math.sqrt(r * r + s1 * s1)
@@ -88,7 +88,7 @@ def stator_lobe_integral(m) -> float:
 @njit(cache=True)
 def stator_sectors(closest_phase, m):
     """1/2 int S x S' du from the start valley to u* (trailing) and from u* to the end valley (leading), in terms
-    of the lobe phase phi* = u* - u_k of the closest point (SPEC §2.5, §7.2 piece 1).
+    of the lobe phase phi* = u* - u_k of the closest point (docs/model.md §2.5, §7.2 piece 1).
 
     With S = C + d n, C x C' = r^2, C x n = -r r'/N and n x n' = kappa_C N = 1 - beta' (Steiner's formula):
       1/2 S x S' = 1/2 r^2 + d N - 1/2 d (r r'/N)' + 1/2 d^2 (1 - beta'),   beta = atan2(r', r)
@@ -125,7 +125,7 @@ def _segment(ax, ay, bx, by, avx, avy, bvx, bvy):
 @njit(cache=True)
 def _slot_side(side, gx, gy, exi_x, exi_y, vx, vy, phi_dot, er_x, er_y, omega, m):
     """The slot-side boundary of chamber `side` (+1 leading, -1 trailing), oriented from the tip junction J down
-    to the slot edge E (SPEC §6.2, §7.2 piece 2):
+    to the slot edge E (docs/model.md §6.2, §7.2 piece 2):
 
       J = T + side (t/2) e_eta (vane),  E = R_m e_r + side (w/2) e_theta (rotor),  xi_E = (E - G).e_xi,
       r_J = J.e_r;  exposed face J -> F, F = G + xi_E e_xi + side (t/2) e_eta, if xi_T > xi_E;
@@ -172,13 +172,13 @@ def _slot_side(side, gx, gy, exi_x, exi_y, vx, vy, phi_dot, er_x, er_y, omega, m
 @njit(cache=True)
 def _vane_side_boundaries(gx, gy, phi, vx, vy, phi_dot, theta, omega, closest_parameter, m):
     """Green sums of the chamber boundary pieces between the stator point S(u*) and the slot edges E+-
-    (tip gap, tip arcs, slot-side paths), and the areas their gaps sweep per unit time (SPEC §7.2 pieces 2-4).
+    (tip gap, tip arcs, slot-side paths), and the areas their gaps sweep per unit time (docs/model.md §7.2 pieces 2-4).
 
     Tip gap S(u*) -> P_V = T + rho n(u*), with S' = N (1 + d kappa_C) tau and n' = N kappa_C tau;
     u*' = (v_T . tau)/(N (1 + g_C kappa_C)) from (T - C(u*)).C'(u*) = 0, g_C = (T - C).n.
     Tip arcs: trailing P_V -> J- (psi_c -> -pi/2), leading J+ -> P_V (pi/2 -> psi_c).
     Returns (leading sum, trailing sum [m^2], leading gap sweep, trailing gap sweep [m^2/s], xi_E+, xi_E-,
-    r_J+, r_J-, e_xi, sin psi_c, cos psi_c): the last ones are the inputs of the SPEC §6.2 gas loads.
+    r_J+, r_J-, e_xi, sin psi_c, cos psi_c): the last ones are the inputs of the docs/model.md §6.2 gas loads.
     """
     exi_x = math.cos(phi)
     exi_y = math.sin(phi)
@@ -222,7 +222,7 @@ def _vane_side_boundaries(gx, gy, phi, vx, vy, phi_dot, theta, omega, closest_pa
 
 @njit(cache=True)
 def chamber_volumes(x, y, phi, theta, closest_parameter, lobe_start, m):
-    """Geometric volumes (V_L, V_T) [m^3] of the leading and trailing chambers of the active lobe (SPEC §7.2).
+    """Geometric volumes (V_L, V_T) [m^3] of the leading and trailing chambers of the active lobe (docs/model.md §7.2).
 
     x, y, phi: vane pose (centre of mass G, axis angle phi3); theta: rotor angle (slot centreline), in the same
     2 pi branch as lobe_start; closest_parameter: u* of the stator point closest to the tip centre (tip_contact,
@@ -246,11 +246,11 @@ def chamber_volumes(x, y, phi, theta, closest_parameter, lobe_start, m):
 @njit(cache=True)
 def chamber_volume_rates(x, y, phi, vx, vy, phi_dot, theta, omega, closest_parameter, m):
     """(dV_L/dt, dV_T/dt, gap_L, gap_T) [m^3/s]: the exact time derivatives of `chamber_volumes` and their gap
-    parts (SPEC §7.2, §6.4).
+    parts (docs/model.md §7.2, §6.4).
 
     x, y, phi, vx, vy, phi_dot: vane pose and velocity (centre of mass G); theta, omega: rotor angle and speed;
     closest_parameter: the converged u* of the pose (any 2 pi branch; its rate follows from the closest-point
-    condition). With the SPEC §6.2 resultants of `gas_loads`:
+    condition). With the docs/model.md §6.2 resultants of `gas_loads`:
       dV_sigma/dt = [vane_gas_load power + rotor_gas_moment omega](p_sigma = 1, other pressures 0) + gap_sigma
     gap_sigma = L sum 1/2 (v_P + v_Q) x (Q - P) over the load-free gap segments of chamber sigma (tip gap and
     slot-mouth gap), so P_gas = sum_sigma p_sigma (dV_sigma/dt - gap_sigma) holds exactly.

@@ -1,4 +1,4 @@
-"""Contact detection for the six regions and the contact force laws (SPEC §4, §5).
+"""Contact detection for the six regions and the contact force laws (docs/model.md §4, §5).
 
 Detection functions are pure: they take the poses as floats and return, per region, the signed penetration
 delta (> 0 in contact), the unit normal n pointing from the other body into the vane, the application point P
@@ -11,7 +11,7 @@ from numba import njit
 
 from .geometry import closest_pitch_frame
 
-# candidate types of the slot-mouth regions c1/c2 (SPEC §4.2), used by the extended mode key
+# candidate types of the slot-mouth regions c1/c2 (docs/model.md §4.2), used by the extended mode key
 NO_CANDIDATE, EDGE_ON_FACE, EDGE_ON_ARC, TIP_ON_WALL = 0, 1, 2, 3
 HERTZ_POINT, JOHNSON_LINE = 0, 1
 THRELFALL, AMBROSIO = 0, 1
@@ -20,7 +20,7 @@ HERTZ_EXPONENT = 1.5
 
 @njit(cache=True)
 def slot_mouth_contact(side, gx, gy, exi_x, exi_y, er_x, er_y, m):
-    """Region c1 (side = +1, leading) or c2 (side = -1, trailing): the deepest valid candidate (SPEC §4.2).
+    """Region c1 (side = +1, leading) or c2 (side = -1, trailing): the deepest valid candidate (docs/model.md §4.2).
 
     A edge vs flat face:   xi_E <= xi_T:                delta = t/2 - side eta_E,  n = -side e_eta,  P = E
     B edge vs tip arc:     xi_E > xi_T, side eta_E > 0:  delta = rho - |E - T|,     n = (T - E)/|T - E|, P = E
@@ -68,7 +68,7 @@ def slot_mouth_contact(side, gx, gy, exi_x, exi_y, er_x, er_y, m):
 
 @njit(cache=True)
 def slot_bottom_contact(side, gx, gy, exi_x, exi_y, er_x, er_y, m):
-    """Region c3 (side = +1) or c4 (side = -1): bottom corner B vs slot wall, half-plane method (SPEC §4.3).
+    """Region c3 (side = +1) or c4 (side = -1): bottom corner B vs slot wall, half-plane method (docs/model.md §4.3).
 
     B = G + xi_B e_xi + side (t/2) e_eta,   delta = side B.e_theta - w/2,   n = -side e_theta,   P = B.
     Returns (delta, n_x, n_y, P_x, P_y, vane curvature, other curvature, radial position of B).
@@ -83,7 +83,7 @@ def slot_bottom_contact(side, gx, gy, exi_x, exi_y, er_x, er_y, m):
 
 @njit(cache=True)
 def tip_contact(tip_x, tip_y, exi_x, exi_y, parameter_offset, m):
-    """Tip circle vs stator, regions c5 (psi_c > 0) and c6 (psi_c < 0) (SPEC §2.6, §4.4).
+    """Tip circle vs stator, regions c5 (psi_c > 0) and c6 (psi_c < 0) (docs/model.md §2.6, §4.4).
 
     g_C = (T - C(u*)).n(u*),  delta = g_C - c_S,  n_contact = -n(u*),  P = T + rho n(u*),
     psi_c = atan2(n.e_eta, n.e_xi),  kappa_S = kappa_C/(1 + d kappa_C),  1/R* = 1/rho - kappa_S.
@@ -104,13 +104,13 @@ def tip_contact(tip_x, tip_y, exi_x, exi_y, parameter_offset, m):
 
 @njit(cache=True)
 def hertz_stiffness(vane_curvature, other_curvature, effective_modulus):
-    """K = (4/3) E* sqrt(R*),  1/R* = 1/R_i + 1/R_j (concave negative, plane 0) (SPEC §5.2 option P)."""
+    """K = (4/3) E* sqrt(R*),  1/R* = 1/R_i + 1/R_j (concave negative, plane 0) (docs/model.md §5.2 option P)."""
     return 4.0 / 3.0 * effective_modulus / math.sqrt(vane_curvature + other_curvature)
 
 
 @njit(cache=True)
 def _line_contact_constants(vane_curvature, other_curvature, m):
-    """delta(F) = F (A - B ln F) for the Johnson line contact (SPEC §5.2 option L):
+    """delta(F) = F (A - B ln F) for the Johnson line contact (docs/model.md §5.2 option L):
 
     b = sqrt(4 F R*/(pi L E*)),  delta = F/(pi L) sum_curved c_k (2 ln(4 R_k/b) - 1),  c_k = (1 - nu^2)/E.
     """
@@ -129,7 +129,7 @@ def _line_contact_constants(vane_curvature, other_curvature, m):
 
 @njit(cache=True)
 def elastic_force(penetration, vane_curvature, other_curvature, m):
-    """Elastic normal force and stored elastic energy at penetration delta > 0 (SPEC §5.1-§5.2).
+    """Elastic normal force and stored elastic energy at penetration delta > 0 (docs/model.md §5.1-§5.2).
 
     Option P: F = K delta^1.5, energy K delta^2.5 / 2.5.
     Option L: F solves delta = F (A - B ln F) by Newton in ln F; energy = A F^2/2 - B F^2 ln F/2 - B F^2/4.
@@ -154,14 +154,14 @@ def elastic_force(penetration, vane_curvature, other_curvature, m):
 
 @njit(cache=True)
 def normal_force(elastic, penetration_rate, onset_velocity, restitution):
-    """Lankarani-Nikravesh: F_n = F_el [1 + 3(1 - c_e^2)/4 * delta_dot/delta_dot^-], clamped at 0 (SPEC §5.1)."""
+    """Lankarani-Nikravesh: F_n = F_el [1 + 3(1 - c_e^2)/4 * delta_dot/delta_dot^-], clamped at 0 (docs/model.md §5.1)."""
     force = elastic * (1.0 + 0.75 * (1.0 - restitution * restitution) * penetration_rate / onset_velocity)
     return force if force > 0.0 else 0.0
 
 
 @njit(cache=True)
 def friction_coefficient_effective(slip_speed, m):
-    """mu_eff(|v_t|): Threlfall mu (1 - exp(-3|v_t|/v_0)) or Ambrosio's piecewise-linear ramp (SPEC §5.3)."""
+    """mu_eff(|v_t|): Threlfall mu (1 - exp(-3|v_t|/v_0)) or Ambrosio's piecewise-linear ramp (docs/model.md §5.3)."""
     if m.friction_model == THRELFALL:
         exponent = 3.0 * slip_speed / m.friction_velocity
         if exponent > 40.0:         # 1 - exp(-40) is 1.0 in double precision

@@ -1,4 +1,4 @@
-"""Vane-tip-centre displacement laws s(theta) and their first three derivatives (SPEC §2.3).
+"""Vane-tip-centre displacement laws s(theta) and their first three derivatives (docs/model.md §2.3).
 
 All laws are periodic in the lobe angle 2 pi / z, zero at the valleys theta = 2 pi j / z and equal to the
 stroke h at mid-lobe. Derivatives are with respect to the rotor angle theta.
@@ -17,7 +17,7 @@ TWO_PI = 2.0 * math.pi
 
 @njit(cache=True)
 def _harmonic(theta, stroke, lobes):
-    """s = (h/2)(1 - cos z theta) and derivatives (SPEC §2.3 option 1)."""
+    """s = (h/2)(1 - cos z theta) and derivatives (docs/model.md §2.3 option 1)."""
     c = math.cos(lobes * theta)
     s = math.sin(lobes * theta)
     half = 0.5 * stroke
@@ -26,7 +26,7 @@ def _harmonic(theta, stroke, lobes):
 
 @njit(cache=True)
 def _rise_return(theta, stroke, lobes, law):
-    """Symmetric rise over zeta in [0, pi] and mirrored return, x = zeta/pi (SPEC §2.3 options 2 and 4)."""
+    """Symmetric rise over zeta in [0, pi] and mirrored return, x = zeta/pi (docs/model.md §2.3 options 2 and 4)."""
     zeta = (lobes * theta) % TWO_PI
     rising = zeta <= math.pi
     x = zeta / math.pi if rising else (TWO_PI - zeta) / math.pi
@@ -47,7 +47,7 @@ def _rise_return(theta, stroke, lobes, law):
 
 @njit(cache=True)
 def _harmonic_with_dwells(theta, stroke, lobes, bottom_dwell, top_dwell):
-    """Bottom dwell beta0 centred on the valley, cosine rise, top dwell beta1, cosine return (SPEC §2.3 option 3).
+    """Bottom dwell beta0 centred on the valley, cosine rise, top dwell beta1, cosine return (docs/model.md §2.3 option 3).
 
     The law is C1: s and s' are continuous, s'' jumps by (h/2)(pi/beta_r)^2 at the ends of each rise/return.
     """

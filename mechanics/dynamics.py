@@ -1,4 +1,4 @@
-"""One evaluation of the reduced equations of motion, in the order of SPEC §8.1b.
+"""One evaluation of the reduced equations of motion, in the order of docs/model.md §8.1b.
 
 `evaluate` fills the state derivative and the output row (forces, powers, kinematics) for a state y at time t,
 given the speed law, the pressure source and the memory of the last accepted step. It is the right-hand side
@@ -30,7 +30,7 @@ from .speed import rotor_motion
 
 @njit(cache=True)
 def leading_pressure_from_table(phase, table, lobes):
-    """p_L(phi) by linear interpolation of a uniform table over the lobe phase [0, 2 pi/z] (SPEC §6.1)."""
+    """p_L(phi) by linear interpolation of a uniform table over the lobe phase [0, 2 pi/z] (docs/model.md §6.1)."""
     last = table.size - 1
     position = phase / (2.0 * math.pi / lobes) * last
     if position <= 0.0:
@@ -44,7 +44,7 @@ def leading_pressure_from_table(phase, table, lobes):
 
 @njit(cache=True)
 def table_pressures(theta, m, gas, memory):
-    """(p_L, p_T, p_b): the pressure tables of SPEC §6.1 (Level 0 and 0.5) read a p_L(phi) table;
+    """(p_L, p_T, p_b): the pressure tables of docs/model.md §6.1 (Level 0 and 0.5) read a p_L(phi) table;
     the trailing chamber is at suction and the back chamber at discharge pressure."""
     phase = theta - memory[MEM_LOBE_START]
     return (leading_pressure_from_table(phase, gas.pressure_table, m.lobes), m.suction_pressure,
@@ -54,7 +54,7 @@ def table_pressures(theta, m, gas, memory):
 @njit(cache=True)
 def reported_kinematics(tip_x, tip_y, tip_vx, tip_vy, tip_ax, tip_ay, cg_vx, cg_vy, cg_ax, cg_ay,
                         theta, omega, theta_ddot, base_radius):
-    """The thesis's relative kinematics (SPEC §3.4):
+    """The thesis's relative kinematics (docs/model.md §3.4):
 
     s_r = T.e_r - R0,  v_r = v_T.e_r + omega eta_T,  a_r = a_T.e_r + 2 omega v_T.e_theta + theta_ddot eta_T - omega^2 xi_T,
     v_theta = v_G.e_theta,  a_theta = a_G.e_theta,  with xi_T = T.e_r, eta_T = T.e_theta.
@@ -73,7 +73,7 @@ def reported_kinematics(tip_x, tip_y, tip_vx, tip_vy, tip_ax, tip_ay, cg_vx, cg_
 
 @njit(cache=True)
 def _mouth_level_and_junction_radius(side, gx, gy, tip_x, tip_y, exi_x, exi_y, er_x, er_y, m):
-    """Vane-frame level xi_E of the slot edge E_side and radius r_J = J_side.e_r of the tip junction (SPEC §6.2)."""
+    """Vane-frame level xi_E of the slot edge E_side and radius r_J = J_side.e_r of the tip junction (docs/model.md §6.2)."""
     edge_x = m.mouth_radius * er_x - side * m.half_slot_width * er_y
     edge_y = m.mouth_radius * er_y + side * m.half_slot_width * er_x
     junction_x = tip_x - side * m.half_thickness * exi_y
@@ -83,7 +83,7 @@ def _mouth_level_and_junction_radius(side, gx, gy, tip_x, tip_y, exi_x, exi_y, e
 
 @njit(cache=True)
 def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
-    """Right-hand side f(t, y) and, if `report`, the output row; returns a status code (0 = fine). SPEC §8.1b:
+    """Right-hand side f(t, y) and, if `report`, the output row; returns a status code (0 = fine). docs/model.md §8.1b:
 
     Intermediate integrator stages pass report=False and skip the quantities that are only reported.
     q_ddot3 = Q3/[m3, m3, J3];  lambda3 = Q1phi;  lambda6 = Q2phi - J2 theta_ddot;  T_d = -lambda6
@@ -186,7 +186,7 @@ def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
         damping_power += (force_n - elastic) * rate
         contact_energy += energy
         out[O_NORMAL_FORCE + region] = force_n
-        # same application point on both bodies (SPEC §5.4)
+        # same application point on both bodies (docs/model.md §5.4)
         force_x += fx
         force_y += fy
         moment_vane += (px - gx) * fy - (py - gy) * fx
@@ -200,7 +200,7 @@ def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
             stator_fy -= fy
             moment_stator += reaction_moment
 
-    # gas loads (SPEC §6.2)
+    # gas loads (docs/model.md §6.2)
     real_gas = m.pressure_model == REAL_GAS_MODEL
     leading = trailing = (0.0, 0.0, 0.0, 0.0, 0)          # (p, h, c_v, dp/dT, status), Level 1 only
     volumes = (0.0, 0.0)
@@ -229,7 +229,7 @@ def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
     moment_rotor += gas_moment_rotor
     gas_power = gas_power_vane + gas_moment_rotor * omega
 
-    # reduced equations of motion (SPEC §3.1)
+    # reduced equations of motion (docs/model.md §3.1)
     ax = force_x / m.vane_mass
     ay = force_y / m.vane_mass
     alpha = moment_vane / m.vane_inertia
@@ -246,7 +246,7 @@ def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
     dydt[WORK_IN + 2] = friction_power
     dydt[WORK_IN + 3] = damping_power
     if real_gas:
-        # geometric volumes and their exact rates (SPEC §7.2): the rates are the unit-pressure power on the
+        # geometric volumes and their exact rates (docs/model.md §7.2): the rates are the unit-pressure power on the
         # wetted walls plus the sweep of the load-free gaps (tip and slot-mouth gaps)
         volumes = chamber_volumes(gx, gy, phi, theta, tip[7], memory[MEM_LOBE_START], m)
         rates = chamber_volume_rates(gx, gy, phi, vx, vy, phi_dot, theta, omega, tip[7], m)
@@ -256,7 +256,7 @@ def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
 
     if not report:
         return status
-    # outputs (SPEC §3.4, §6.4)
+    # outputs (docs/model.md §3.4, §6.4)
     rx = m.tip_centre * exi_x
     ry = m.tip_centre * exi_y
     tip_vx = vx - phi_dot * ry
@@ -330,7 +330,7 @@ def evaluate(t, y, m, speed_law, gas, memory, dydt, out, report=True):
 
 @njit(cache=True)
 def pose_chamber_volumes(t, y, memory, m, speed_law):
-    """(V_L, V_T) with the dead volume, from the vane pose in y and the current lobe (SPEC §7.2)."""
+    """(V_L, V_T) with the dead volume, from the vane pose in y and the current lobe (docs/model.md §7.2)."""
     theta = rotor_motion(t, speed_law)[0]
     exi_x = math.cos(y[ANGLE])
     exi_y = math.sin(y[ANGLE])

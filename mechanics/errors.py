@@ -1,4 +1,4 @@
-"""The exception raised when the time loop cannot go on (SPEC §8.2: step below h_min, non-finite state, ...)."""
+"""The exception raised when the time loop cannot go on (docs/model.md §8.2: step below h_min, non-finite state, ...)."""
 import numpy as np
 
 

@@ -1,11 +1,11 @@
-"""Level 1: the real-gas leading and trailing chambers of the active lobe, coupled to the vane (SPEC §7.2-§7.4).
+"""Level 1: the real-gas leading and trailing chambers of the active lobe, coupled to the vane (docs/model.md §7.2-§7.4).
 
 The chamber states (T, rho) live in the state vector after the vane's (mechanics.layout). Idle lobes are taken
 as the suction plenum: each is open to its own suction port all the time and has a constant volume, so its state
 stays at suction conditions; the valley-seal leak of the leading chamber goes there, a trailing chamber that
-becomes idle is vented there, and a new leading chamber is filled from there (the bookkeeping of SPEC §7.2).
+becomes idle is vented there, and a new leading chamber is filled from there (the bookkeeping of docs/model.md §7.2).
 
-Flow paths (SPEC §7.4), positive into the chamber named first:
+Flow paths (docs/model.md §7.4), positive into the chamber named first:
   suction port (area A_s, lobe phases [0, phi_sc]): split between L (the part ahead of the vane) and T;
   discharge port with check valve (A_d): L -> discharge plenum only while p_L > p_d;
   valley-seal leak (c_S L): L <-> idle lobe at suction state;
@@ -38,7 +38,7 @@ def _energy_into(flow, upstream_enthalpy, own_enthalpy):
 
 @njit(cache=True)
 def chamber_gas_derivatives(y, leading, trailing, volumes, volume_rates, vane_phase, tip_penetration, m, dydt):
-    """Fill the Level 1 part of dy/dt (SPEC §7.3): chamber (T, rho) and the cumulative boundary flows.
+    """Fill the Level 1 part of dy/dt (docs/model.md §7.3): chamber (T, rho) and the cumulative boundary flows.
 
     leading/trailing: (p, h, c_v, dp/dT, status) of each chamber; volumes and volume_rates: (V_L, V_T) with the
     dead volume included, (dV_L/dt, dV_T/dt). Returns (suction mass flow into both chambers, discharge mass flow,
@@ -94,7 +94,7 @@ def chamber_gas_derivatives(y, leading, trailing, volumes, volume_rates, vane_ph
 
 @njit(cache=True)
 def switch_chambers(y, old_volumes, new_volumes, gas, m):
-    """Chamber bookkeeping when the vane crosses a valley (SPEC §7.2), volumes with the dead volume included:
+    """Chamber bookkeeping when the vane crosses a valley (docs/model.md §7.2), volumes with the dead volume included:
 
     the leading chamber (now the dead volume at the valley) becomes the new trailing chamber: its mass and internal
     energy fill the new trailing volume (adiabatic, T from u at the new density); the trailing chamber becomes an

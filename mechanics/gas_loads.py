@@ -1,4 +1,4 @@
-"""Gas force resultants on the vane, the rotor and the stator, and their power (SPEC §6.2, §6.4).
+"""Gas force resultants on the vane, the rotor and the stator, and their power (docs/model.md §6.2, §6.4).
 
 All functions are pure. The vane is loaded on its exposed leading/trailing flat faces, on its two tip arcs
 (split at the contact angle psi_c, never clipped) and on its bottom face (back-chamber pressure); the rotor on the
@@ -18,7 +18,7 @@ def _load(force_x, force_y, arm_x, arm_y, vx, vy, angular_velocity):
 @njit(cache=True)
 def vane_gas_load(vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leading, xi_mouth_trailing,
                   sin_contact_angle, cos_contact_angle, leading_pressure, trailing_pressure, back_pressure, m):
-    """Resultant (F_x, F_y, moment about G) and power sum F_i . v3(point_i) of the gas on the vane (SPEC §6.2).
+    """Resultant (F_x, F_y, moment about G) and power sum F_i . v3(point_i) of the gas on the vane (docs/model.md §6.2).
 
     flat face side s:  F = -s p_s L l_s e_eta at ((xi_E + xi_T)/2, s t/2),  l_s = xi_T - xi_E,s  (if > 0)
     tip arc [psi1, psi2] at p:  F = -p L rho [(sin psi2 - sin psi1) e_xi + (cos psi1 - cos psi2) e_eta], through T
@@ -55,7 +55,7 @@ def vane_gas_load(vx, vy, angular_velocity, exi_x, exi_y, xi_mouth_leading, xi_m
 @njit(cache=True)
 def rotor_gas_moment(junction_radius_leading, junction_radius_trailing, corner_radius_leading,
                      corner_radius_trailing, leading_pressure, trailing_pressure, back_pressure, m):
-    """Moment about O of the gas on the rotor's slot walls (SPEC §6.2, extended to the back chamber):
+    """Moment about O of the gas on the rotor's slot walls (docs/model.md §6.2, extended to the back chamber):
 
     crescents above a recessed tip junction:  sum_s s p_s L (R_m^2 - r_J,s^2)/2  for r_J,s < R_m
     back chamber, walls from the slot bottom up to the vane's bottom corners:  p_b L (r_B+^2 - r_B-^2)/2
@@ -72,7 +72,7 @@ def rotor_gas_moment(junction_radius_leading, junction_radius_trailing, corner_r
 
 @njit(cache=True)
 def stator_gas_moment(stator_radius_squared, leading_pressure, trailing_pressure, m):
-    """M_gas,stator = 1/2 L (p_L - p_T)(|S(u*)|^2 - R_v^2),  R_v = R_r + c_S (SPEC §6.2)."""
+    """M_gas,stator = 1/2 L (p_L - p_T)(|S(u*)|^2 - R_v^2),  R_v = R_r + c_S (docs/model.md §6.2)."""
     valley_radius = m.rotor_radius + m.stator_clearance
     return 0.5 * m.axial_length * (leading_pressure - trailing_pressure) * (stator_radius_squared
                                                                             - valley_radius ** 2)
@@ -83,7 +83,7 @@ def mouth_gap_moment(side, edge_x, edge_y, mouth_level, junction_radius, gx, gy,
                      pressure, m):
     """Moment of chamber pressure p on the slot-mouth gap of one side, the short segment from the slot edge E
     (or, for a recessed tip, from the wall point at the junction radius) to the vane (E-F or W-J), carried by no
-    body: M = -s 1/2 p L (|a|^2 - |b|^2) for the segment a -> b (SPEC §6.2's wall-arc rule)."""
+    body: M = -s 1/2 p L (|a|^2 - |b|^2) for the segment a -> b (docs/model.md §6.2's wall-arc rule)."""
     if junction_radius < m.mouth_radius:
         a_x = junction_radius * er_x - side * m.half_slot_width * er_y
         a_y = junction_radius * er_y + side * m.half_slot_width * er_x
@@ -106,7 +106,7 @@ def gap_moment(vane_point_x, vane_point_y, stator_radius_squared, mouth_gap_lead
 
     M_gap = 1/2 L (p_L - p_T)(|P_V|^2 - |S(u*)|^2) + 1/2 L (p_L - p_s)((R_r + c_S)^2 - R_r^2) + M_mouth,+ + M_mouth,-
     A diagnostic, not a load: it closes the global angular-momentum balance
-    <T_d> = <lambda3 + M_gas,stator + M_gap> (SPEC §11 T11) when the tip does not sit exactly on the stator.
+    <T_d> = <lambda3 + M_gas,stator + M_gap> (docs/model.md §11 T11) when the tip does not sit exactly on the stator.
     """
     tip = 0.5 * m.axial_length * (leading_pressure - trailing_pressure) * (
         vane_point_x * vane_point_x + vane_point_y * vane_point_y - stator_radius_squared)

@@ -1,5 +1,5 @@
-"""What the time loop reads of the gas, per pressure model (SPEC §6.1, §7), and the compressor figures derived
-from a revolution of Level 1 (SPEC §6.4): volumetric and isentropic efficiency, discharge temperature.
+"""What the time loop reads of the gas, per pressure model (docs/model.md §6.1, §7), and the compressor figures derived
+from a revolution of Level 1 (docs/model.md §6.4): volumetric and isentropic efficiency, discharge temperature.
 
 - Level 0 / 0.5: a p_L(phase) table (mechanics.pressure_source); the property table is a one-cell placeholder.
 - Level 1: the fluid's (T, ln rho) property table for the operating envelope (thermo.property_table, cached on
@@ -58,7 +58,7 @@ class GasReference:
         """Per-revolution compressor figures from a Level 1 WindowSummary (one revolution):
 
         volumetric efficiency  eta_v = m_d / (rho_s z L A_lobe)        (delivered mass per revolution)
-        isentropic efficiency  eta_is = m_dot_d (h_2s - h_1) / <P_in>  (SPEC §6.4)
+        isentropic efficiency  eta_is = m_dot_d (h_2s - h_1) / <P_in>  (docs/model.md §6.4)
         discharge temperature  T(p_d, h_d), h_d the mass-weighted enthalpy of the discharged gas
         """
         duration = summary.end_time - summary.start_time

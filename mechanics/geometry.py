@@ -1,4 +1,4 @@
-"""Pitch curve, stator envelope and the closest point of the stator to the tip centre (SPEC §2.4–§2.6).
+"""Pitch curve, stator envelope and the closest point of the stator to the tip centre (docs/model.md §2.4–§2.6).
 
 The tip centre nominally runs on the pitch curve C(u) = r(u) e_r(u), r = R0 + s(u). The stator is the outer
 envelope of the tip circle, the parallel curve S(u) = C(u) + d n(u) with d = rho + c_S.
@@ -15,7 +15,7 @@ TWO_PI = 2.0 * math.pi
 
 @njit(cache=True)
 def pitch_curve(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """C(u), C'(u), C''(u) as six floats (SPEC §2.4).
+    """C(u), C'(u), C''(u) as six floats (docs/model.md §2.4).
 
     C = r e_r,  C' = r' e_r + r e_theta,  C'' = (r'' - r) e_r + 2 r' e_theta,  r = R0 + s(u).
     """
@@ -32,7 +32,7 @@ def pitch_curve(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
 
 @njit(cache=True)
 def pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """Point C, unit outward normal n, speed N = |C'| and signed curvature kappa_C at u (SPEC §2.4).
+    """Point C, unit outward normal n, speed N = |C'| and signed curvature kappa_C at u (docs/model.md §2.4).
 
     n = (r e_r - r' e_theta)/N,  kappa_C = (r^2 + 2 r'^2 - r r'')/(r^2 + r'^2)^(3/2)  (> 0: centre towards O).
     """
@@ -49,7 +49,7 @@ def pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
 
 @njit(cache=True)
 def stator_point(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, offset):
-    """S(u) = C + d n, its derivative S' = N (1 + d kappa_C) tau and curvature kappa_S (SPEC §2.5)."""
+    """S(u) = C + d n, its derivative S' = N (1 + d kappa_C) tau and curvature kappa_S (docs/model.md §2.5)."""
     cx, cy, nx, ny, speed, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
     stretch = speed * (1.0 + offset * curvature)
     # tangent tau = n rotated +90 degrees
@@ -59,7 +59,7 @@ def stator_point(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, of
 
 @njit(cache=True)
 def _closest_point_residual(u, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """f(u) = (T - C(u)).C'(u) and f'(u) = -|C'|^2 + (T - C).C'' (SPEC §2.6)."""
+    """f(u) = (T - C(u)).C'(u) and f'(u) = -|C'|^2 + (T - C).C'' (docs/model.md §2.6)."""
     cx, cy, d1x, d1y, d2x, d2y = pitch_curve(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
     gx = tx - cx
     gy = ty - cy
@@ -68,7 +68,7 @@ def _closest_point_residual(u, tx, ty, law, stroke, lobes, bottom_dwell, top_dwe
 
 @njit(cache=True)
 def _brent_root(a, b, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """Brent-Dekker root of f on a sign-changing bracket [a, b] (safeguard of SPEC §2.6)."""
+    """Brent-Dekker root of f on a sign-changing bracket [a, b] (safeguard of docs/model.md §2.6)."""
     fa = _closest_point_residual(a, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)[0]
     fb = _closest_point_residual(b, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)[0]
     if fa * fb > 0.0:
@@ -117,7 +117,7 @@ def _brent_root(a, b, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_
 
 @njit(cache=True)
 def _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """Newton on f(u) = (T - C).C' = 0 from u_start, steps limited to 0.05 rad, stop at |du| < 1e-13 (SPEC §2.6).
+    """Newton on f(u) = (T - C).C' = 0 from u_start, steps limited to 0.05 rad, stop at |du| < 1e-13 (docs/model.md §2.6).
 
     Returns (converged, u, iterations, r, s', s'', cos u, sin u) with the values of the last iterate; not converged
     if f' >= 0, after 20 iterations, or on a root more than pi/(2z) from u_start (another root of f, reachable
@@ -153,7 +153,7 @@ def _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell
 
 @njit(cache=True)
 def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """Parameter u* of the point of C closest to T, and the Newton iterations used (SPEC §2.6).
+    """Parameter u* of the point of C closest to T, and the Newton iterations used (docs/model.md §2.6).
 
     Newton from u_start (the previous u*, or atan2(T)); if it does not converge (see `_newton_closest`): Brent on
     [u0 - pi/(2z), u0 + pi/(2z)] around u0 = atan2(T) unwrapped next to u_start, and iterations = -1.
@@ -173,7 +173,7 @@ def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, t
 
 @njit(cache=True)
 def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, kappa_C), for the time loop (SPEC §2.6).
+    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, kappa_C), for the time loop (docs/model.md §2.6).
 
     The frame is built from the values of the last Newton iterate, so no extra trigonometric evaluation is needed.
     """
@@ -213,12 +213,12 @@ def _regularity_on_grid(samples, law, stroke, lobes, bottom_dwell, top_dwell, ba
 
 
 def stator_regularity(params, samples=20000):
-    """min over a lobe of 1 + d kappa_C(u) and where it occurs (SPEC §2.5); must be > 0."""
+    """min over a lobe of 1 + d kappa_C(u) and where it occurs (docs/model.md §2.5); must be > 0."""
     return _regularity_on_grid(samples, *law_arguments(params), params.envelope_offset)
 
 
 def check_stator_regularity(params) -> None:
-    """Raise ValueError if the stator envelope has a cusp: 1 + d kappa_C <= 0 somewhere (SPEC §2.5)."""
+    """Raise ValueError if the stator envelope has a cusp: 1 + d kappa_C <= 0 somewhere (docs/model.md §2.5)."""
     lowest, where = stator_regularity(params)
     if not lowest > 0.0:
         raise ValueError(
@@ -239,7 +239,7 @@ def _lobe_integral(nodes, weights, law, stroke, lobes, bottom_dwell, top_dwell, 
 
 
 def lobe_area(params, panels=64, order=16):
-    """Area between stator and rotor over one lobe (SPEC §2.5), composite Gauss-Legendre:
+    """Area between stator and rotor over one lobe (docs/model.md §2.5), composite Gauss-Legendre:
 
     A_lobe = 1/2 int_{u_j}^{u_j+1} (S_x S'_y - S_y S'_x) du - 1/2 R_r^2 (2 pi / z)
     """

@@ -1,4 +1,4 @@
-"""The time loop: adaptive Dormand-Prince 5(4) and the thesis's ABM4 PECE with RK4 start (SPEC §8.2).
+"""The time loop: adaptive Dormand-Prince 5(4) and the thesis's ABM4 PECE with RK4 start (docs/model.md §8.2).
 
 Each kernel is entered once per advance and runs until the end time, a full history buffer or a failure. Both
 share the step bookkeeping: events (valley crossing, end of the speed ramp, the end time) clip the step to land on
@@ -33,7 +33,7 @@ NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
 
 @njit(cache=True)
 def _tolerance(i, value, m):
-    """atol_i + rtol |y_i| with the absolute tolerances of SPEC §8.2 (and of the Level 1 gas states)."""
+    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (and of the Level 1 gas states)."""
     if i == X or i == Y:
         atol = m.atol_position
     elif i == ANGLE:
@@ -55,7 +55,7 @@ def _tolerance(i, value, m):
 
 @njit(cache=True)
 def _error_norm(y_new, error, m):
-    """max_i |error_i| / (atol_i + rtol |y_i|), the norm of SPEC §8.2 (ABM4)."""
+    """max_i |error_i| / (atol_i + rtol |y_i|), the norm of docs/model.md §8.2 (ABM4)."""
     worst = 0.0
     for i in range(y_new.size):
         worst = max(worst, abs(error[i]) / _tolerance(i, y_new[i], m))
@@ -118,7 +118,7 @@ def _clip_to_events(t, step, t_end, law, memory, m):
 
 @njit(cache=True)
 def _accept(out, memory, m):
-    """Update the memory after an accepted step (SPEC §5.1, §8.1); return True if the contact mode changed."""
+    """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed."""
     memory[MEM_CLOSEST_OFFSET] = out[O_CLOSEST_OFFSET]
     tip_region = 4 if out[O_CONTACT_ANGLE] > 0.0 else 5
     for slot in range(5):
@@ -256,7 +256,7 @@ def _rk4_step(t, y, h, k1, m, law, gas, memory, k2, k3, k4, stage, y_new, out):
 
 @njit(cache=True)
 def advance_abm4(t, y, t_end, m, law, gas, memory, control, history, record, counters):
-    """ABM4 PECE with RK4 start, Milne error estimate and step halving/doubling (SPEC §8.2).
+    """ABM4 PECE with RK4 start, Milne error estimate and step halving/doubling (docs/model.md §8.2).
 
     AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
     LTE ~ 19/270 (y^c - y^p).  history[j] = f_n-j at spacing h; control[CONTROL_HISTORY] counts valid points.

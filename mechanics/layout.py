@@ -1,15 +1,15 @@
-"""Index layout of the arrays the time loop shares with Python (SPEC §8.1, ARCHITECTURE "State").
+"""Index layout of the arrays the time loop shares with Python (docs/model.md §8.1, ARCHITECTURE "State").
 
-- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp (SPEC §6.4);
+- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp (docs/model.md §6.4);
 - memory: non-state values updated only after accepted steps (warm start, lobe, impact velocities, mode);
-- outputs: the quantities re-evaluated at each accepted step (SPEC §8.1b), one row of the history.
+- outputs: the quantities re-evaluated at each accepted step (docs/model.md §8.1b), one row of the history.
 """
 
 # state vector
 X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING = range(10)
 STATE_SIZE = 10
 # Level 1 (real gas) adds the chamber states (T, rho) of the leading and trailing chambers and the cumulative
-# flows across the chambers' boundary (SPEC §7.2-§7.3): net mass and energy from the suction side (ports, valley
+# flows across the chambers' boundary (docs/model.md §7.2-§7.3): net mass and energy from the suction side (ports, valley
 # leak, chambers filled from or vented to the idle lobes), mass and enthalpy out through the discharge valve, and
 # the compression work -sum p dV on the two chambers.
 (LEADING_TEMPERATURE, LEADING_DENSITY, TRAILING_TEMPERATURE, TRAILING_DENSITY, MASS_SUCTION, MASS_DISCHARGE,
@@ -87,7 +87,7 @@ REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, VANE_BOT
 STATUS_TEXT = {
     STEP_TOO_SMALL: "the step size fell below min_step",
     NOT_FINITE: "the state became non-finite",
-    TIP_ON_FLAT_FACE: "the stator touches a flat face of the vane (|psi_c| > pi/2, SPEC §2.6)",
-    VANE_BOTTOMED: "the vane reached the slot bottom (SPEC §4.3)",
+    TIP_ON_FLAT_FACE: "the stator touches a flat face of the vane (|psi_c| > pi/2, docs/model.md §2.6)",
+    VANE_BOTTOMED: "the vane reached the slot bottom (docs/model.md §4.3)",
     GAS_STATE_INVALID: "a chamber state left the fluid property table (two-phase dome or outside its envelope)",
 }

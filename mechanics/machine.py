@@ -1,4 +1,4 @@
-"""The constants the compiled time loop reads: geometry, mass properties, contact and numerics (SPEC §2, §5, §8).
+"""The constants the compiled time loop reads: geometry, mass properties, contact and numerics (docs/model.md §2, §5, §8).
 
 `Machine` is a flat named tuple of floats (numba passes it by value, with named fields); choices are stored as
 their integer codes. It is derived from validated `CompressorParameters` and never edited by hand.
@@ -18,7 +18,7 @@ class VaneMassProperties(NamedTuple):
 
 
 def vane_mass_properties(vane_thickness, vane_length, axial_length, density) -> VaneMassProperties:
-    """Stadium-ended vane: rectangle t x l_r plus half disc of radius rho = t/2 (SPEC §2.1).
+    """Stadium-ended vane: rectangle t x l_r plus half disc of radius rho = t/2 (docs/model.md §2.1).
 
     A_r = t l_r, xi_r = -l_r/2;  A_s = pi rho^2/2, xi_s = 4 rho/(3 pi);  xi_G = (A_r xi_r + A_s xi_s)/(A_r + A_s)
     m3 = rho_s L (A_r + A_s)
@@ -40,7 +40,7 @@ def vane_mass_properties(vane_thickness, vane_length, axial_length, density) -> 
 
 
 def effective_modulus(youngs_modulus, poisson_ratio) -> float:
-    """E* with 1/E* = (1 - nu_i^2)/E_i + (1 - nu_j^2)/E_j, same material on both sides (SPEC §5.2)."""
+    """E* with 1/E* = (1 - nu_i^2)/E_i + (1 - nu_j^2)/E_j, same material on both sides (docs/model.md §5.2)."""
     return youngs_modulus / (2.0 * (1.0 - poisson_ratio ** 2))
 
 
@@ -86,7 +86,7 @@ class Machine(NamedTuple):
     min_step: float
     max_step: float
     max_onset_penetration: float
-    # chamber gas (SPEC §7; Level 1 uses the fluid's values, the tables the ideal-gas parameters)
+    # chamber gas (docs/model.md §7; Level 1 uses the fluid's values, the tables the ideal-gas parameters)
     pressure_model: float
     suction_temperature: float
     suction_density: float
@@ -108,7 +108,7 @@ class Machine(NamedTuple):
 
 class SuctionGas(NamedTuple):
     """What the kernels need of the working fluid: suction density and enthalpy (consistent with the property
-    table under Level 1), and the ideal-gas k and R of the nozzle law (SPEC §7.4)."""
+    table under Level 1), and the ideal-gas k and R of the nozzle law (docs/model.md §7.4)."""
     density: float
     enthalpy: float
     heat_capacity_ratio: float
@@ -123,7 +123,7 @@ def ideal_suction_gas(p: CompressorParameters) -> SuctionGas:
 
 
 def machine_from_parameters(p: CompressorParameters, gas: SuctionGas | None = None) -> Machine:
-    """Derive the kernel constants from validated parameters (SPEC §2.1, §2.2, §5.2, §7, §8.2); `gas` defaults to
+    """Derive the kernel constants from validated parameters (docs/model.md §2.1, §2.2, §5.2, §7, §8.2); `gas` defaults to
     the ideal gas of the parameters."""
     gas = gas or ideal_suction_gas(p)
     vane = vane_mass_properties(p.vane_thickness, p.vane_length, p.axial_length, p.vane_density)

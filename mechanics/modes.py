@@ -1,4 +1,4 @@
-"""Contact-mode statistics: dwell time per 6-bit mode mask and the dwell-filtered distinct modes (SPEC §4.6)."""
+"""Contact-mode statistics: dwell time per 6-bit mode mask and the dwell-filtered distinct modes (docs/model.md §4.6)."""
 import numpy as np
 
 REGION_LABELS = ("c1", "c2", "c3", "c4", "c5", "c6")

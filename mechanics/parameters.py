@@ -1,6 +1,6 @@
 """The compressor's parameters, declared once (ARCHITECTURE "One source of truth").
 
-Each field of :class:`CompressorParameters` carries its SI unit, default (SPEC §9), allowed range and a
+Each field of :class:`CompressorParameters` carries its SI unit, default (docs/model.md §9), allowed range and a
 description in its metadata. The simulation validates against these declarations, and the FMU and the README's
 parameter table are generated from them. Choices (the displacement law, the integrator, ...) are string fields
 whose allowed values are listed in the metadata.
@@ -43,13 +43,13 @@ def _choice(default, choices, description):
 
 @dataclass(frozen=True)
 class CompressorParameters:
-    """All parameters of one compressor run, SI units, defaults of SPEC §9."""
+    """All parameters of one compressor run, SI units, defaults of docs/model.md §9."""
 
-    # geometry (SPEC §2)
+    # geometry (docs/model.md §2)
     lobes: int = _number(3, "1", 2, 12, "number of stator lobes z (compression cycles per revolution)",
                          integer=True)
     displacement_law: str = _choice("harmonic", DISPLACEMENT_LAWS,
-                                    "vane-tip-centre displacement law s(theta) of SPEC §2.3")
+                                    "vane-tip-centre displacement law s(theta) of docs/model.md §2.3")
     stroke: float = _number(5.0e-3, "m", 0.0, 20e-3, "vane stroke h = lobe height", exclusive_minimum=True)
     bottom_dwell: float = _number(0.0, "rad", 0.0, 1.0, "bottom (valley) dwell angle beta0, harmonic_dwell law only")
     top_dwell: float = _number(0.0, "rad", 0.0, 1.0, "top dwell angle beta1, harmonic_dwell law only")
@@ -61,7 +61,7 @@ class CompressorParameters:
     edge_radius: float = _number(1.0e-3, "m", 1e-5, 10e-3, "effective radius r_e of slot edges and vane corners")
     slot_clearance: float = _number(0.0, "m", 0.0, 1e-3, "total (diametral) vane-slot clearance c_R = w - t")
     stator_clearance: float = _number(0.0, "m", 0.0, 1e-3, "radial vane-stator clearance c_S (also the valley gap)")
-    # materials and contact (SPEC §5)
+    # materials and contact (docs/model.md §5)
     vane_density: float = _number(7850.0, "kg/m3", 100.0, 25000.0, "vane material density")
     rotor_inertia: float = _number(5.5e-4, "kg.m2", 0.0, 10.0, "rotor moment of inertia J2 about its axis")
     youngs_modulus: float = _number(207e9, "Pa", 1e8, 1e12, "Young's modulus of all bodies")
@@ -71,16 +71,16 @@ class CompressorParameters:
     onset_velocity_floor: float = _number(0.01, "m/s", 1e-6, 10.0, "floor v_floor on the stored impact velocity")
     stiffness_model: str = _choice("hertz_point", STIFFNESS_MODELS,
                                    "contact stiffness: Hertz point contact (option P) or Johnson line contact (L)")
-    friction_model: str = _choice("threlfall", FRICTION_MODELS, "regularised Coulomb friction law of SPEC §5.3")
+    friction_model: str = _choice("threlfall", FRICTION_MODELS, "regularised Coulomb friction law of docs/model.md §5.3")
     friction_coefficient: float = _number(0.085, "1", 0.0, 2.0, "Coulomb friction coefficient mu, all contacts")
     friction_velocity: float = _number(1e-3, "m/s", 1e-7, 1.0, "regularisation velocity v_0 of the friction law",
                                        exclusive_minimum=True)
     friction_velocity_full: float = _number(1e-3, "m/s", 1e-7, 1.0,
                                             "velocity v_1 of full sliding friction (ambrosio law only)")
-    # gas (SPEC §6-§7)
+    # gas (docs/model.md §6-§7)
     pressure_model: str = _choice("ideal_gas_table", PRESSURE_MODELS,
                                   "chamber gas: Level 0 polytropic table, Level 0.5 ideal-gas table, or Level 1 "
-                                  "real-gas chambers coupled to the vane (SPEC §6.1, §7)")
+                                  "real-gas chambers coupled to the vane (docs/model.md §6.1, §7)")
     fluid: str = _fluid("R134a", "working fluid, any pure or pseudo-pure CoolProp fluid name (real_gas only)")
     suction_pressure: float = _number(0.2928e6, "Pa", 1e3, 20e6, "suction pressure p_s", exclusive_minimum=True)
     suction_temperature: float = _number(283.15, "K", 150.0, 600.0, "suction temperature T_s")
@@ -101,12 +101,12 @@ class CompressorParameters:
     heat_capacity_ratio: float = _number(1.10, "1", 1.0, 2.0, "ideal-gas heat capacity ratio k (Level 0.5)",
                                          exclusive_minimum=True)
     gas_constant: float = _number(81.5, "J/(kg.K)", 1.0, 5000.0, "specific gas constant R (Level 0.5)")
-    # numerics (SPEC §8)
+    # numerics (docs/model.md §8)
     integrator: str = _choice("dopri5", INTEGRATORS,
                               "time integrator: adaptive Dormand-Prince 5(4) or the thesis's ABM4 PECE")
     relative_tolerance: float = _number(1e-6, "1", 1e-12, 1e-2, "relative error tolerance rtol")
     tolerance_scale: float = _number(1.0, "1", 1e-6, 1e3,
-                                     "factor on all absolute tolerances of SPEC §8.2 (positions 1e-9 m, ...)")
+                                     "factor on all absolute tolerances of docs/model.md §8.2 (positions 1e-9 m, ...)")
     initial_step: float = _number(1e-6, "s", 1e-10, 1e-3, "first step size h_0")
     min_step: float = _number(1e-9, "s", 1e-14, 1e-5, "smallest step h_min; below it the run stops with an error")
     max_step: float = _number(2e-5, "s", 1e-8, 1e-2, "largest step h_max")
@@ -128,27 +128,27 @@ class CompressorParameters:
     # derived quantities used everywhere ------------------------------------------------------------
     @property
     def tip_radius(self) -> float:
-        """Tip semicircle radius rho = t/2 (SPEC §2.1)."""
+        """Tip semicircle radius rho = t/2 (docs/model.md §2.1)."""
         return 0.5 * self.vane_thickness
 
     @property
     def base_radius(self) -> float:
-        """Tip-centre radius at zero stroke, R0 = R_r - rho (SPEC §2.3)."""
+        """Tip-centre radius at zero stroke, R0 = R_r - rho (docs/model.md §2.3)."""
         return self.rotor_radius - self.tip_radius
 
     @property
     def slot_width(self) -> float:
-        """Slot width w = t + c_R (SPEC §2.2)."""
+        """Slot width w = t + c_R (docs/model.md §2.2)."""
         return self.vane_thickness + self.slot_clearance
 
     @property
     def mouth_radius(self) -> float:
-        """Radius of the slot-mouth edges R_m = sqrt(R_r^2 - (w/2)^2) (SPEC §2.2)."""
+        """Radius of the slot-mouth edges R_m = sqrt(R_r^2 - (w/2)^2) (docs/model.md §2.2)."""
         return math.sqrt(self.rotor_radius ** 2 - (0.5 * self.slot_width) ** 2)
 
     @property
     def envelope_offset(self) -> float:
-        """Offset d = rho + c_S of the stator from the pitch curve (SPEC §2.5)."""
+        """Offset d = rho + c_S of the stator from the pitch curve (docs/model.md §2.5)."""
         return self.tip_radius + self.stator_clearance
 
 
@@ -228,7 +228,7 @@ def _validate_relations(params: CompressorParameters) -> None:
             _reject("bottom_dwell", p.bottom_dwell,
                     f"bottom_dwell + top_dwell < 2 pi / lobes = {2 * math.pi / p.lobes:g} rad")
     # the vane: straight part must stay engaged in the slot by at least one thickness at full stroke,
-    # and never reach the slot bottom at zero stroke (SPEC §2.1, §4.3)
+    # and never reach the slot bottom at zero stroke (docs/model.md §2.1, §4.3)
     straight_length = p.vane_length - p.tip_radius
     bottom_radius_at_full_stroke = p.base_radius + p.stroke - straight_length
     shortest = p.base_radius + p.stroke - p.mouth_radius + p.vane_thickness + p.tip_radius
@@ -245,7 +245,7 @@ def _validate_relations(params: CompressorParameters) -> None:
 def validate(params: CompressorParameters) -> None:
     """Raise ValueError naming the parameter, its value and the allowed range, for any invalid value.
 
-    The stator regularity condition 1 + d kappa_C > 0 (SPEC §2.5) is checked by the geometry module.
+    The stator regularity condition 1 + d kappa_C > 0 (docs/model.md §2.5) is checked by the geometry module.
     """
     _validate_declared_ranges(params)
     _validate_relations(params)

@@ -1,4 +1,4 @@
-"""Per-revolution and per-lobe means, efficiency, energy and torque balances, peak forces and modes (SPEC §4.6, §6.4).
+"""Per-revolution and per-lobe means, efficiency, energy and torque balances, peak forces and modes (docs/model.md §4.6, §6.4).
 
 All means are exact work differences: the work integrals are states, and the time loop lands on every valley
 (every 2 pi / z of rotor angle), so revolution and lobe boundaries are recorded rows.
@@ -35,7 +35,7 @@ class WindowSummary:
     max_tilt: float               # max |phi3 - theta| [rad]
     mode_dwell: dict              # mode mask -> cumulative dwell [s]
     distinct_modes: tuple         # masks with dwell >= tau_min
-    # chamber gas (Level 1; NaN for the pressure tables), SPEC §6.4, §7
+    # chamber gas (Level 1; NaN for the pressure tables), docs/model.md §6.4, §7
     suction_mass_flow: float = math.nan     # net mass from the suction side / duration [kg/s]
     discharge_mass_flow: float = math.nan   # mass through the discharge valve / duration [kg/s]
     discharge_enthalpy: float = math.nan    # mass-weighted enthalpy of the discharged gas [J/kg]
@@ -45,7 +45,7 @@ class WindowSummary:
 
     @property
     def torque_balance_error(self) -> float:
-        """|<T_d> - <lambda3 + M_gas,stator>| / |<T_d>| (SPEC §11 T11)."""
+        """|<T_d> - <lambda3 + M_gas,stator>| / |<T_d>| (docs/model.md §11 T11)."""
         return abs(self.driving_torque - self.stator_torque) / abs(self.driving_torque)
 
     @property
@@ -100,7 +100,7 @@ def summarise(history: History, first: int, last: int, rotor_inertia: float, min
 
 
 def _gas_figures(history: History, first: int, last: int, duration: float) -> dict:
-    """Level 1 flow, enthalpy and work figures of a window, and its mass and energy balance residuals (SPEC §11
+    """Level 1 flow, enthalpy and work figures of a window, and its mass and energy balance residuals (docs/model.md §11
     T19): the chamber contents change by what crossed their boundary."""
     change = {name: history[name][last] - history[name][first]
               for name in ("chamber_mass", "chamber_internal_energy", "mass_suction", "mass_discharge",
@@ -125,13 +125,13 @@ def windows(history: History, period: float, rotor_inertia: float, min_dwell: fl
 
 
 def revolutions(simulation) -> list[WindowSummary]:
-    """Per-revolution summaries of a simulation's recorded history (SPEC §6.4)."""
+    """Per-revolution summaries of a simulation's recorded history (docs/model.md §6.4)."""
     p = simulation.params
     return windows(simulation.history, 2.0 * math.pi, p.rotor_inertia, p.mode_dwell_time)
 
 
 def lobes(simulation) -> list[WindowSummary]:
-    """Per-lobe summaries (2 pi / z of rotor angle each), for the z-fold periodicity check (SPEC §11 T13)."""
+    """Per-lobe summaries (2 pi / z of rotor angle each), for the z-fold periodicity check (docs/model.md §11 T13)."""
     p = simulation.params
     return windows(simulation.history, 2.0 * math.pi / p.lobes, p.rotor_inertia, p.mode_dwell_time)
 
@@ -180,5 +180,5 @@ class RevolutionMonitor:
 
     @property
     def distinct_modes(self) -> list[int]:
-        """Modes whose dwell over the whole run reaches tau_min (SPEC §4.6)."""
+        """Modes whose dwell over the whole run reaches tau_min (docs/model.md §4.6)."""
         return [int(mask) for mask in np.flatnonzero(self.run_dwell >= self.min_dwell)]

@@ -1,7 +1,7 @@
-"""The chamber pressure source of the Level 0 and Level 0.5 models (SPEC §6.1, §6.5, §7.5).
+"""The chamber pressure source of the Level 0 and Level 0.5 models (docs/model.md §6.1, §6.5, §7.5).
 
 Both levels give the leading-chamber pressure as a table p_L(phi) over one lobe, built once per operating point
-by `thermo` from the thin-vane chamber volume of SPEC §6.5; the time loop interpolates it.
+by `thermo` from the thin-vane chamber volume of docs/model.md §6.5; the time loop interpolates it.
 """
 import math
 
@@ -12,11 +12,11 @@ from rotary_vane.thermo import ideal_gas_pressure_table, polytropic_pressure_tab
 from .displacement import displacement_on_grid
 from .geometry import law_arguments
 
-TABLE_POINTS = 20001          # 20000 intervals over the lobe, SPEC §7.5
+TABLE_POINTS = 20001          # 20000 intervals over the lobe, docs/model.md §7.5
 
 
 def thin_vane_volume(params, phase):
-    """Leading-chamber volume and its derivative on a phase grid starting at the valley (SPEC §6.5):
+    """Leading-chamber volume and its derivative on a phase grid starting at the valley (docs/model.md §6.5):
 
     V(phi) = L int_phi^{2 pi/z} 1/2 ((R_r + s)^2 - R_r^2) dphi' + V_dead,   dV/dphi = -L 1/2 ((R_r + s)^2 - R_r^2)
     The integral is taken with the composite trapezoidal rule on the (fine, uniform) grid.
@@ -31,7 +31,7 @@ def thin_vane_volume(params, phase):
 
 
 def leading_pressure_table(params, angular_speed):
-    """p_L on TABLE_POINTS uniform phases over [0, 2 pi/z] for the chosen pressure model (SPEC §6.1).
+    """p_L on TABLE_POINTS uniform phases over [0, 2 pi/z] for the chosen pressure model (docs/model.md §6.1).
 
     Level 0.5 depends on the speed; for a varying speed the table is built at `angular_speed` (the operating
     speed of the run) and held.

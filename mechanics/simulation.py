@@ -1,4 +1,4 @@
-"""`Simulation`: owns all state of one compressor run and advances it in time (SPEC §8.1, ARCHITECTURE "State").
+"""`Simulation`: owns all state of one compressor run and advances it in time (docs/model.md §8.1, ARCHITECTURE "State").
 
 Build it from validated parameters and a speed law, call `advance(t)` as often as needed (optionally with a new
 speed for the advance, as an FMU does once per communication step), and read `outputs`, `history` and the
@@ -32,7 +32,7 @@ RECORD_CHUNK = 4096
 
 
 class History:
-    """Accepted-step output rows (SPEC §8.1b); `history["vane_displacement"]` is one column."""
+    """Accepted-step output rows (docs/model.md §8.1b); `history["vane_displacement"]` is one column."""
 
     def __init__(self, rows: np.ndarray):
         self.rows = rows
@@ -62,9 +62,9 @@ class SimulationState:
 class Simulation:
     """One compressor run under a speed input.
 
-    params: validated `CompressorParameters` (defaults of SPEC §9 if omitted).
+    params: validated `CompressorParameters` (defaults of docs/model.md §9 if omitted).
     speed: a `SpeedLaw` from t = 0 (default constant 1500 rpm).
-    initial_angle: rotor angle theta0 at t = 0 [rad]; SPEC §3.3 uses 0.02 for constant speed, 0 for start-up.
+    initial_angle: rotor angle theta0 at t = 0 [rad]; docs/model.md §3.3 uses 0.02 for constant speed, 0 for start-up.
     keep_history: record every accepted step (needed for plots and revolution summaries).
     table_speed_rpm: operating speed of the Level 0.5 pressure table (default: the speed law's target).
     observers: callables given the output row of the initial state (t = 0, not part of the history), then each
@@ -113,7 +113,7 @@ class Simulation:
                 observer(initial)
 
     def _nominal_state(self, angle: float, omega: float) -> np.ndarray:
-        """Nominal pose and velocity (SPEC §3.3): untilted, centred, tip centre at R0 + s + c_S."""
+        """Nominal pose and velocity (docs/model.md §3.3): untilted, centred, tip centre at R0 + s + c_S."""
         p = self.params
         s, ds, _, _ = displacement(angle, *law_arguments(p)[:5])
         radius = p.base_radius + s + p.stator_clearance
@@ -126,7 +126,7 @@ class Simulation:
         y = np.zeros(REAL_GAS_STATE_SIZE if real_gas else STATE_SIZE)
         y[X], y[Y], y[ANGLE] = centre[0], centre[1], angle
         y[VX], y[VY], y[ANGULAR_VELOCITY] = velocity[0], velocity[1], omega
-        if real_gas:                                # both chambers start at the suction state (SPEC §7.2)
+        if real_gas:                                # both chambers start at the suction state (docs/model.md §7.2)
             y[LEADING_TEMPERATURE] = y[TRAILING_TEMPERATURE] = p.suction_temperature
             y[LEADING_DENSITY] = y[TRAILING_DENSITY] = self.machine.suction_density
         return y

@@ -1,4 +1,4 @@
-"""Rotor speed input: constant, cycloidal or linear ramp, or a speed held or interpolated over an advance (SPEC §3.2).
+"""Rotor speed input: constant, cycloidal or linear ramp, or a speed held or interpolated over an advance (docs/model.md §3.2).
 
 A speed law is one segment starting at time t0 and rotor angle theta0 with speed omega0, moving to omega1 over
 `duration` and constant after it. In the kernel it is the float array
@@ -52,7 +52,7 @@ def constant_speed(rpm: float) -> SpeedLaw:
 
 
 def cycloidal_ramp(rpm: float, duration: float = 0.4, start_rpm: float = 0.0) -> SpeedLaw:
-    """The thesis start-up: omega = omega_ss (t/t_r - sin(2 pi t/t_r)/(2 pi)) for t < t_r (SPEC §3.2)."""
+    """The thesis start-up: omega = omega_ss (t/t_r - sin(2 pi t/t_r)/(2 pi)) for t < t_r (docs/model.md §3.2)."""
     return SpeedLaw("cycloidal", rpm, duration, start_rpm)
 
 
@@ -63,7 +63,7 @@ def linear_ramp(rpm: float, duration: float, start_rpm: float = 0.0) -> SpeedLaw
 
 @njit(cache=True)
 def rotor_motion(t, law):
-    """(theta, omega, theta_ddot) at time t under the speed segment `law` (SPEC §3.2).
+    """(theta, omega, theta_ddot) at time t under the speed segment `law` (docs/model.md §3.2).
 
     cycloidal, x = t - t0 < D:  omega = omega0 + dW (x/D - sin(2 pi x/D)/(2 pi)),
       theta = theta0 + omega0 x + dW (x^2/(2D) + D (cos(2 pi x/D) - 1)/(4 pi^2)),  theta_ddot = dW (1 - cos(2 pi x/D))/D

@@ -1,6 +1,6 @@
 """Shared, independent reference implementations for the mechanics tests.
 
-Everything here is written from the closed forms of SPEC §2.3-§2.6 and §3.2 with numpy/scipy; nothing is
+Everything here is written from the closed forms of docs/model.md §2.3-§2.6 and §3.2 with numpy/scipy; nothing is
 imported from `mechanics`, so the tests compare the package against an independent computation.
 """
 import math
@@ -16,7 +16,7 @@ from scipy.optimize import brentq
 
 
 class HarmonicPitch:
-    """Pitch curve of the harmonic law (SPEC §2.3 option 1, §2.4): C(u) = (R0 + s(u)) e_r(u),
+    """Pitch curve of the harmonic law (docs/model.md §2.3 option 1, §2.4): C(u) = (R0 + s(u)) e_r(u),
     s = (h/2)(1 - cos z u). All methods accept numpy arrays (and complex arguments, for complex-step
     differentiation)."""
 
@@ -68,7 +68,7 @@ class HarmonicPitch:
         return np.imag(self.stator(np.asarray(u, dtype=float) + 1j * step, offset)) / step
 
     def residual(self, u, tx, ty):
-        """f(u) = (T - C(u)).C'(u) (SPEC §2.6)."""
+        """f(u) = (T - C(u)).C'(u) (docs/model.md §2.6)."""
         c = self.point(u)
         d = self.derivative(u)
         return (tx - c[0]) * d[0] + (ty - c[1]) * d[1]
@@ -85,7 +85,7 @@ class HarmonicPitch:
 
 
 def speed_law_reference(t, shape, omega_ss, duration=0.4, theta0=0.0):
-    """(theta, omega, theta_ddot) of SPEC §3.2: constant speed, or the cycloidal ramp from rest over t_r."""
+    """(theta, omega, theta_ddot) of docs/model.md §3.2: constant speed, or the cycloidal ramp from rest over t_r."""
     if shape == "constant":
         return theta0 + omega_ss * t, omega_ss, 0.0
     tr = duration
@@ -97,19 +97,19 @@ def speed_law_reference(t, shape, omega_ss, duration=0.4, theta0=0.0):
 
 
 def effective_modulus_reference(youngs_modulus, poisson_ratio):
-    """E* of SPEC §5.2 for two bodies of the same material: 1/E* = 2 (1 - nu^2)/E."""
+    """E* of docs/model.md §5.2 for two bodies of the same material: 1/E* = 2 (1 - nu^2)/E."""
     return 1.0 / (2.0 * (1.0 - poisson_ratio ** 2) / youngs_modulus)
 
 
 @pytest.fixture(scope="session")
 def reference():
-    """Independent reference implementations (closed forms of the SPEC, numpy/scipy)."""
+    """Independent reference implementations (closed forms of docs/model.md, numpy/scipy)."""
     return SimpleNamespace(HarmonicPitch=HarmonicPitch, speed_law=speed_law_reference,
                            effective_modulus=effective_modulus_reference)
 
 
 # ------------------------------------------------------------------------------------------------------------
-# Reference contact detection and generalized forces (SPEC §4, §5, §6.2), plain numpy, for the T4/T7/T8 checks.
+# Reference contact detection and generalized forces (docs/model.md §4, §5, §6.2), plain numpy, for the T4/T7/T8 checks.
 
 
 def rot(angle):
@@ -126,7 +126,7 @@ def cross(a, b):
 
 
 class VaneGeometry:
-    """The geometric constants the SPEC formulas need, taken from a parameter set (not from `Machine`)."""
+    """The geometric constants the formulas of docs/model.md need, taken from a parameter set (not from `Machine`)."""
 
     def __init__(self, params, tip_centre):
         self.t = params.vane_thickness
@@ -134,7 +134,7 @@ class VaneGeometry:
         self.w = params.vane_thickness + params.slot_clearance
         self.rotor_radius = params.rotor_radius
         self.mouth = math.sqrt(params.rotor_radius ** 2 - (0.5 * self.w) ** 2)
-        self.xi_t = tip_centre                         # xi_T = -xi_G (checked against the SPEC in T2)
+        self.xi_t = tip_centre                         # xi_T = -xi_G (checked against docs/model.md in T2)
         self.xi_b = tip_centre - (params.vane_length - self.rho)
         self.edge = params.edge_radius
         self.cs = params.stator_clearance
@@ -143,7 +143,7 @@ class VaneGeometry:
 
 
 def reference_slot_mouth(side, g, phi, theta, v):
-    """SPEC §4.2 for region c1 (side +1) / c2 (side -1): the deepest valid candidate among A, B, C.
+    """docs/model.md §4.2 for region c1 (side +1) / c2 (side -1): the deepest valid candidate among A, B, C.
     Returns dict(delta, n, P, radius (R*), kind) or None if no candidate is valid."""
     er, et = rot(theta), perp(rot(theta))
     exi, eeta = rot(phi), perp(rot(phi))
@@ -172,14 +172,14 @@ def reference_slot_mouth(side, g, phi, theta, v):
 
 
 def reference_slot_bottom(side, g, phi, theta, v):
-    """SPEC §4.3 for region c3 (side +1) / c4 (side -1): corner B vs slot wall (half-plane)."""
+    """docs/model.md §4.3 for region c3 (side +1) / c4 (side -1): corner B vs slot wall (half-plane)."""
     et = perp(rot(theta))
     corner = g + v.xi_b * rot(phi) + side * 0.5 * v.t * perp(rot(phi))
     return dict(delta=side * np.dot(corner, et) - v.w / 2, n=-side * et, P=corner, radius=v.edge, kind="corner")
 
 
 def reference_tip(g, phi, v):
-    """SPEC §2.6/§4.4: tip circle vs stator at the closest point u* (reference brute force + root)."""
+    """docs/model.md §2.6/§4.4: tip circle vs stator at the closest point u* (reference brute force + root)."""
     tip = g + v.xi_t * rot(phi)
     u = v.pitch.closest(tip[0], tip[1])
     c, n = v.pitch.point(u), v.pitch.normal(u)
@@ -201,7 +201,7 @@ def reference_contacts(g, phi, theta, v):
 
 
 def reference_friction_coefficient(slip, params):
-    """SPEC §5.3: Threlfall mu (1 - exp(-3|v_t|/v_0)) or Ambrosio's piecewise-linear c_d."""
+    """docs/model.md §5.3: Threlfall mu (1 - exp(-3|v_t|/v_0)) or Ambrosio's piecewise-linear c_d."""
     mu, v0 = params.friction_coefficient, params.friction_velocity
     if params.friction_model == "threlfall":
         return mu * (1 - math.exp(-3 * slip / v0))
@@ -214,8 +214,8 @@ def reference_friction_coefficient(slip, params):
 
 
 def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
-    """Applied generalized forces of SPEC §5.4 and §6.2 on stator (Q1, moment about O), rotor (Q2, about O) and
-    vane (Q3, about G), plus the powers of SPEC §6.4 and per-region details.
+    """Applied generalized forces of docs/model.md §5.4 and §6.2 on stator (Q1, moment about O), rotor (Q2, about O) and
+    vane (Q3, about G), plus the powers of docs/model.md §6.4 and per-region details.
 
     state = (x3, y3, phi3, vx3, vy3, phi_dot3); onset[k] = stored approach velocity of slot k (0 = none;
     slots 0-3 for c1-c4, 4 for the tip); pressures = (p_L, p_T, p_b).
@@ -258,7 +258,7 @@ def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
         target = q2 if k < 4 else q1
         target += [-force[0], -force[1], cross(p, -force)]
         details.append(dict(region=k, normal=normal, force=force, P=p, elastic=elastic))
-    # gas on the vane (SPEC §6.2)
+    # gas on the vane (docs/model.md §6.2)
     p_l, p_t, p_b = pressures
     length = params.axial_length
     exi, eeta = rot(phi), perp(rot(phi))
@@ -294,7 +294,7 @@ def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
         r_j = np.dot(junction, er)
         if r_j < v.mouth:
             rotor_gas += side * pressure * length * (v.mouth ** 2 - r_j ** 2) / 2
-    # back chamber (an extension of SPEC §6.2, adopted in mechanics/gas_loads.py): p_b also wets the two slot
+    # back chamber (an extension of docs/model.md §6.2, adopted in mechanics/gas_loads.py): p_b also wets the two slot
     # walls from the slot bottom up to the vane's bottom corners B+-. A wall element at radius r on the sigma
     # side is pushed in +sigma e_theta with p_b L dr, moment r p_b L dr about O; the bottom face of the slot is
     # radial-symmetric (no moment). Sum: p_b L (r_B+^2 - r_B-^2)/2.
@@ -311,7 +311,7 @@ def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
 
 @pytest.fixture(scope="session")
 def contact_reference():
-    """Independent SPEC §4-§6.2 reference: detection per region and the generalized forces."""
+    """Independent docs/model.md §4-§6.2 reference: detection per region and the generalized forces."""
     return SimpleNamespace(VaneGeometry=VaneGeometry, slot_mouth=reference_slot_mouth,
                            slot_bottom=reference_slot_bottom, tip=reference_tip, contacts=reference_contacts,
                            forces=reference_forces, friction_coefficient=reference_friction_coefficient,

@@ -1,8 +1,8 @@
 """Tests of the animations examples/animate.py (issue 6, "Animations").
 
-Drawn geometry against closed forms: the vane outline encloses t l_r + pi rho^2/2 (SPEC §2.1), the rotor outline
+Drawn geometry against closed forms: the vane outline encloses t l_r + pi rho^2/2 (docs/model.md §2.1), the rotor outline
 the disc minus the slot and the cap it cuts from the rim (§2.2), the leading and trailing chambers together fill
-the lobe area of SPEC §2.5 (168.81 mm^2 for z = 3) and the leading one shrinks as the vane advances (§1.1); the
+the lobe area of docs/model.md §2.5 (168.81 mm^2 for z = 3) and the leading one shrinks as the vane advances (§1.1); the
 drawn machine has the valley gap k c_S and the slot width t + k c_R. Contact arrows of a simulated revolution
 point from the other body into the vane on the side their region names (§1.3) and start on the vane outline
 (within the penetration).
@@ -33,7 +33,7 @@ from rotary_vane.mechanics.machine import machine_from_parameters
 PROJECT_DIR = Path(__file__).resolve().parents[1]
 ANIMATE_SCRIPT = PROJECT_DIR / "examples" / "animate.py"
 CLEARANCE = 0.05e-3                # m, c_R = c_S
-LOBE_AREA_Z3 = 168.81e-6           # m^2, SPEC §2.5 table, z = 3, c_S = 0 (Green's theorem, [P])
+LOBE_AREA_Z3 = 168.81e-6           # m^2, docs/model.md §2.5 table, z = 3, c_S = 0 (Green's theorem, [P])
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
@@ -83,7 +83,7 @@ def revolution(params):
 def test_vane_outline_encloses_the_stadium_area(params):
     m = machine_from_parameters(params)
     t, rho = params.vane_thickness, params.tip_radius
-    expected = t * (params.vane_length - rho) + 0.5 * math.pi * rho ** 2            # SPEC §2.1: A_r + A_s
+    expected = t * (params.vane_length - rho) + 0.5 * math.pi * rho ** 2            # docs/model.md §2.1: A_r + A_s
     outline = animate.vane_outline(m, np.array([0.004, -0.02, 0.7]), arc_points=2001)
     assert polygon_area(outline) == pytest.approx(expected, rel=1e-6)
 
@@ -118,7 +118,7 @@ def test_drawn_machine_exaggerates_the_clearances(params):
     k = 12.0
     m = animate.drawn_machine(params, k)
     valley = animate.stator_curve(m, np.array([0.0, 2.0 * math.pi / 3]))
-    # SPEC §2.5: at a valley |S| = R_r + c_S; drawn with k c_S. SPEC §2.2: w = t + c_R, drawn t + k c_R.
+    # docs/model.md §2.5: at a valley |S| = R_r + c_S; drawn with k c_S. docs/model.md §2.2: w = t + c_R, drawn t + k c_R.
     assert np.hypot(*valley.T) - params.rotor_radius == pytest.approx([k * CLEARANCE] * 2, abs=1e-12)
     assert 2.0 * m.half_slot_width == pytest.approx(params.vane_thickness + k * CLEARANCE, abs=1e-15)
 

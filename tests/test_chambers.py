@@ -1,5 +1,5 @@
-"""Chamber volumes and their rates (SPEC §7.2, §11 T19): finite differences of V against dV/dt, the unit-pressure
-power of SPEC §6.2/§6.4, discretised boundaries, the lobe decomposition, the thin-vane volume of §6.5, mirror
+"""Chamber volumes and their rates (docs/model.md §7.2, §11 T19): finite differences of V against dV/dt, the unit-pressure
+power of docs/model.md §6.2/§6.4, discretised boundaries, the lobe decomposition, the thin-vane volume of §6.5, mirror
 symmetry and the volumes left at the valleys.
 
 References are independent of `mechanics.chambers`: finite differences, shoelace areas of finely discretised
@@ -71,7 +71,7 @@ def rates(state, m):
 
 
 def boundary_cases(state, m):
-    """Which SPEC §6.2 pieces exist (exposed face, recessed junction) on each side: the volume is only C1 where
+    """Which docs/model.md §6.2 pieces exist (exposed face, recessed junction) on each side: the volume is only C1 where
     these switch, so a finite-difference stencil must not straddle a switch."""
     exi = np.array([math.cos(state["phi"]), math.sin(state["phi"])])
     eeta = np.array([-exi[1], exi[0]])
@@ -106,7 +106,7 @@ def lobe_volume(params):
 @pytest.mark.parametrize("lobes", LOBES)
 def test_nominal_rates_match_finite_differences(lobes, check):
     """c = 0, untilted vane on the pitch curve, rotor turning: FD of V equals dV/dt (1e-6 relative), and the gap
-    parts vanish (all gaps are closed), so dV/dt is the unit-pressure power of SPEC §7.2 alone."""
+    parts vanish (all gaps are closed), so dV/dt is the unit-pressure power of docs/model.md §7.2 alone."""
     params, m = setup(lobes)
     scale = OMEGA * lobe_volume(params)
     lobe = 2.0 * math.pi / lobes
@@ -162,7 +162,7 @@ def test_rates_match_finite_differences_for_other_laws(law, check):
 
 @pytest.mark.parametrize("clearance", [0.0, 0.1e-3])
 def test_wall_part_is_the_unit_pressure_gas_power(clearance, contact_reference, check):
-    """dV_sigma/dt - gap_sigma equals the gas power of SPEC §6.2/§6.4 at p_sigma = 1, other pressures 0, from the
+    """dV_sigma/dt - gap_sigma equals the gas power of docs/model.md §6.2/§6.4 at p_sigma = 1, other pressures 0, from the
     independent conftest reference, so P_gas = sum p_sigma (dV_sigma/dt - gap_sigma)."""
     params, m = setup(3, clearance=clearance)
     scale = OMEGA * lobe_volume(params)
@@ -285,7 +285,7 @@ def vane_cross_section_in_lobe(state, v, n):
     """Signed area enclosed by the mouth arc of the rotor (E+ -> E-, clockwise), the trailing slot-side path up to
     J-, the tip arc J- -> J+ and the leading slot-side path down to E+. A slot-side path runs J -> F (the exposed
     face down to the level of E, if xi_T > xi_E) -> W (the wall at the junction radius, if r_J < R_m) -> E, the
-    wetted surfaces of SPEC §6.2. Arcs are discretised with n points."""
+    wetted surfaces of docs/model.md §6.2. Arcs are discretised with n points."""
     g = np.array([state["x"], state["y"]])
     exi = np.array([math.cos(state["phi"]), math.sin(state["phi"])])
     eeta = np.array([-exi[1], exi[0]])
@@ -318,7 +318,7 @@ def vane_cross_section_in_lobe(state, v, n):
 @pytest.mark.parametrize("clearance", [0.05e-3, 0.2e-3])
 def test_lobe_decomposition_with_clearance(clearance, contact_reference, check):
     """V_L + V_T + X L = A_lobe L off the nominal path (tilt, lift-off, offset in the slot, recessed tips), with
-    X the vane cross-section in the lobe bounded by the SPEC §6.2 wetted surfaces (discretised independently)."""
+    X the vane cross-section in the lobe bounded by the docs/model.md §6.2 wetted surfaces (discretised independently)."""
     params, m = setup(3, clearance=clearance)
     v = contact_reference.VaneGeometry(params, m.tip_centre)
     rng = np.random.default_rng(7)
@@ -353,10 +353,10 @@ def test_exposed_face_above_a_recessed_junction(contact_reference, check):
 
 @pytest.mark.parametrize("lobes", LOBES)
 def test_leading_volume_against_the_thin_vane_formula(lobes, check):
-    """SPEC §6.5 thin-vane V(phi) (pressure_source, without V_dead) at c = 0, nominal pose. The thin model splits
+    """docs/model.md §6.5 thin-vane V(phi) (pressure_source, without V_dead) at c = 0, nominal pose. The thin model splits
     the lobe on the slot centreline and ignores the vane's thickness: given back half the exposed vane cross-section,
     the exact leading chamber exceeds it by a margin that falls from the thin formula's whole-lobe deficit
-    1 - A_thin/A_lobe (A_thin = (2 pi/z)(R_r h/2 + 3 h^2/16), SPEC §2.5: 1.13 % at z = 3) at the start valley to
+    1 - A_thin/A_lobe (A_thin = (2 pi/z)(R_r h/2 + 3 h^2/16), docs/model.md §2.5: 1.13 % at z = 3) at the start valley to
     0 at the end valley. Checked: 0 <= (V_L + X L/2 - V_thin)/V_lobe <= that deficit, and the deficit itself."""
     params, m = setup(lobes)
     lobe = 2.0 * math.pi / lobes

@@ -1,5 +1,5 @@
-"""Contact detection and contact laws: SPEC §11 T5 (normal force), T6 (friction), T7 (mirror symmetry),
-T8 (clearance geometry), and the six-region detection against an independent SPEC §4 reference
+"""Contact detection and contact laws: docs/model.md §11 T5 (normal force), T6 (friction), T7 (mirror symmetry),
+T8 (clearance geometry), and the six-region detection against an independent docs/model.md §4 reference
 (tests/conftest.py)."""
 import math
 
@@ -15,7 +15,7 @@ from rotary_vane.mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDA
 from rotary_vane.mechanics.machine import machine_from_parameters
 
 RPM = 2 * math.pi / 60
-E_STAR_SPEC = 113.7e9        # SPEC §5.2 / §9
+E_STAR_MODEL_DOC = 113.7e9        # docs/model.md §5.2 / §9
 
 
 def e_star(params):
@@ -23,11 +23,11 @@ def e_star(params):
 
 
 def hertz_k(radius, params):
-    """K = (4/3) E* sqrt(R*) (SPEC §5.2 option P)."""
+    """K = (4/3) E* sqrt(R*) (docs/model.md §5.2 option P)."""
     return 4 / 3 * e_star(params) * math.sqrt(radius)
 
 
-# (vane curvature, other curvature, R*) of SPEC §5.2's table: edge on plane, tip on wall, edge vs arc,
+# (vane curvature, other curvature, R*) of docs/model.md §5.2's table: edge on plane, tip on wall, edge vs arc,
 # tip vs a concave stator (kappa_S = 40 1/m), tip vs a locally convex stator (kappa_S = -150 1/m)
 RHO, R_E = 2e-3, 1e-3
 CURVATURE_CASES = [(0.0, 1 / R_E), (1 / RHO, 0.0), (1 / RHO, 1 / R_E), (1 / RHO, -40.0), (1 / RHO, 150.0)]
@@ -40,15 +40,15 @@ CURVATURE_CASES = [(0.0, 1 / R_E), (1 / RHO, 0.0), (1 / RHO, 1 / R_E), (1 / RHO,
 def test_hertz_stiffness_matches_spec(check):
     p = CompressorParameters()
     m = machine_from_parameters(p)
-    check("T5 E* (formula) vs SPEC 113.7 GPa, rel.", abs(e_star(p) / E_STAR_SPEC - 1), 1e-3)
+    check("T5 E* (formula) vs docs/model.md 113.7 GPa, rel.", abs(e_star(p) / E_STAR_MODEL_DOC - 1), 1e-3)
     assert abs(m.effective_modulus / e_star(p) - 1) < 1e-14
     k = hertz_stiffness(0.0, 1 / R_E, m.effective_modulus)
-    # SPEC §5.2: K = 4.80e9 N/m^1.5 for r_e = 1 mm
-    check("T5 K(r_e = 1 mm) vs SPEC 4.80e9, rel.", abs(k / 4.80e9 - 1), 2e-3)
-    # SPEC §5.2: 300 N gives delta = 15.7 um and k = 1.5 F/delta = 2.9e7 N/m
+    # docs/model.md §5.2: K = 4.80e9 N/m^1.5 for r_e = 1 mm
+    check("T5 K(r_e = 1 mm) vs docs/model.md 4.80e9, rel.", abs(k / 4.80e9 - 1), 2e-3)
+    # docs/model.md §5.2: 300 N gives delta = 15.7 um and k = 1.5 F/delta = 2.9e7 N/m
     delta = (300 / k) ** (2 / 3)
-    check("T5 delta(300 N) vs SPEC 15.7 um [m]", abs(delta - 15.7e-6), 0.1e-6)
-    check("T5 1.5 F/delta vs SPEC 2.9e7 N/m, rel.", abs(1.5 * 300 / delta / 2.9e7 - 1), 0.02)
+    check("T5 delta(300 N) vs docs/model.md 15.7 um [m]", abs(delta - 15.7e-6), 0.1e-6)
+    check("T5 1.5 F/delta vs docs/model.md 2.9e7 N/m, rel.", abs(1.5 * 300 / delta / 2.9e7 - 1), 0.02)
     for vane, other in CURVATURE_CASES:
         expected = hertz_k(1 / (vane + other), p)
         check("T5 hertz_stiffness vs (4/3) E* sqrt(R*), rel.",
@@ -148,7 +148,7 @@ def test_impact_restitution_option_p(check, v_minus):
 
 
 def johnson_penetration(force, vane_curvature, other_curvature, params):
-    """delta(F) of SPEC §5.2 option L: b = sqrt(4 F R*/(pi L E*)),
+    """delta(F) of docs/model.md §5.2 option L: b = sqrt(4 F R*/(pi L E*)),
     delta = F/(pi L) sum over curved bodies (1 - nu^2)/E (2 ln(4 R_k/b) - 1), flat bodies rigid."""
     radius = 1 / (vane_curvature + other_curvature)
     half_width = math.sqrt(4 * force * radius / (math.pi * params.axial_length * e_star(params)))
@@ -170,7 +170,7 @@ def test_line_contact_inverts_johnson_formula(check, vane, other):
         got = elastic_force(delta, vane, other, m)[0]
         worst = max(worst, abs(got / force - 1))
     check("T5 option L F(delta(F)) round trip, rel.", worst, 1e-9)
-    # monotonic in delta, and much stiffer than option P (SPEC §5.2: ~0.1-0.2 um at 300 N, not ~16 um)
+    # monotonic in delta, and much stiffer than option P (docs/model.md §5.2: ~0.1-0.2 um at 300 N, not ~16 um)
     deltas = np.logspace(-11, -5.5, 300)
     forces = np.array([elastic_force(d, vane, other, m)[0] for d in deltas])
     assert np.all(np.diff(forces) > 0)
@@ -278,7 +278,7 @@ def test_friction_force_in_the_kernel_is_odd_and_continuous(check, reference, ke
 
 
 # ----------------------------------------------------------------------------------------------------------
-# Detection against the independent SPEC §4 reference
+# Detection against the independent docs/model.md §4 reference
 
 KIND_CODES = {"A": EDGE_ON_FACE, "B": EDGE_ON_ARC, "C": TIP_ON_WALL}
 
@@ -311,7 +311,7 @@ def code_regions(g, phi, theta, m):
 @pytest.mark.parametrize("clearance", [0.0, 0.05e-3, 0.2e-3])
 def test_detection_matches_reference(check, contact_reference, clearance):
     """Random poses across the stroke (tip in the slot, at the mouth, out), lateral offsets and tilts: every
-    region's delta, normal, point, R* and c1/c2 candidate type match SPEC §4.2-§4.4 evaluated independently."""
+    region's delta, normal, point, R* and c1/c2 candidate type match docs/model.md §4.2-§4.4 evaluated independently."""
     p, m, v = machine_and_geometry(contact_reference, slot_clearance=clearance, stator_clearance=clearance)
     rng = np.random.default_rng(int(clearance * 1e6) + 1)
     kinds = set()
@@ -342,7 +342,7 @@ def test_detection_matches_reference(check, contact_reference, clearance):
         assert np.allclose(tip[1:3], ref_tip["n"], rtol=0, atol=1e-12)
         assert np.allclose(tip[3:5], ref_tip["P"], rtol=0, atol=1e-15)
         assert abs(1 / (tip[5] + tip[6]) / ref_tip["radius"] - 1) < 1e-10
-    check("detection delta vs SPEC §4 reference [m] / 1 mm", worst, 1e-12)
+    check("detection delta vs docs/model.md §4 reference [m] / 1 mm", worst, 1e-12)
     assert kinds == {"A", "B", "C"}
 
 

@@ -1,4 +1,4 @@
-"""Dynamic runs: SPEC §11 T9-T18 (no-clearance kinematics, energy and torque balances, steady state, lobe
+"""Dynamic runs: docs/model.md §11 T9-T18 (no-clearance kinematics, energy and torque balances, steady state, lobe
 periodicity, clearance and speed trends, convergence, start-up, integrator agreement)."""
 import functools
 import math
@@ -40,7 +40,7 @@ def time_rms(values, time):
 
 
 def nominal(simulation, angle, omega, theta_ddot=0.0):
-    """s, s' omega, s'' omega^2 + s' theta_ddot of the nominal law at rotor angles `angle` (SPEC §3.4)."""
+    """s, s' omega, s'' omega^2 + s' theta_ddot of the nominal law at rotor angles `angle` (docs/model.md §3.4)."""
     law = law_arguments(simulation.params)[:5]
     values = np.array([displacement(a, *law)[:3] for a in angle])
     return values[:, 0], values[:, 1] * omega, values[:, 2] * omega ** 2 + values[:, 1] * theta_ddot
@@ -191,7 +191,7 @@ def test_start_up(clearance):
 
 
 def test_abm4_agrees_with_a_tight_reference():
-    """T18: ABM4 (SPEC §8.2) and Dormand-Prince at rtol 1e-9 give run(0.05) powers within 0.5 %; after the
+    """T18: ABM4 (docs/model.md §8.2) and Dormand-Prince at rtol 1e-9 give run(0.05) powers within 0.5 %; after the
     dwell filter their mode sets differ by at most one mode."""
     abm4 = revolutions(run(0.05e-3, integrator="abm4"))[-1]
     reference = revolutions(run(0.05e-3, integrator="dopri5", relative_tolerance=1e-9, min_step=1e-13))[-1]

@@ -8,7 +8,7 @@ What is checked:
   run the FMU refuses fails loudly with the FMU's message (fmu_harness.simulate);
 * standalone: the printed figures equal a direct fmpy run of the FMU done here with the same inputs, and the mean
   torque equals the shaft work over the last completed revolution / 2 pi from that run's cumulative outputs;
-* startup: the rotor angle the FMU turned equals the closed-form angle of the SPEC §3.2 ramp (conftest's
+* startup: the rotor angle the FMU turned equals the closed-form angle of the docs/model.md §3.2 ramp (conftest's
   independent reference), which holds only if the harness feeds the end-of-step speed the FMU expects;
 * motor_coupling --quick: Jacobi and Gauss-Seidel errors shrink with the communication step (about first order);
   the iterative master stays within 0.1 % of the reference where Gauss-Seidel is off by more than 1 %; no scheme
@@ -189,7 +189,7 @@ def test_startup_writes_its_files(startup, built_fmus):
 
 def test_startup_follows_the_spec_ramp(startup, reference):
     """The FMU's rotor angle at every communication point equals the closed-form angle of the cycloidal ramp
-    (SPEC §3.2; conftest's reference). Feeding the speed at the start of each step instead of its end would lag
+    (docs/model.md §3.2; conftest's reference). Feeding the speed at the start of each step instead of its end would lag
     by omega h = 0.016 rad at full speed; the trapezoidal rule over 1e-4 s steps is exact to about 1e-6 rad."""
     from fmpy.util import read_csv
     _, out = startup

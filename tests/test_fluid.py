@@ -1,6 +1,6 @@
-"""thermo.fluid: the CoolProp HEOS fluid (SPEC §7.1, §7.3, §7.4, §11 T19) and the operating-point check.
+"""thermo.fluid: the CoolProp HEOS fluid (docs/model.md §7.1, §7.3, §7.4, §11 T19) and the operating-point check.
 
-References are independent of the code under test: textbook gas constants and heat-capacity ratios, the SPEC's
+References are independent of the code under test: textbook gas constants and heat-capacity ratios, docs/model.md's
 CoolProp check values (computed there with PropsSI, another code path), thermodynamic identities (Maxwell-type
 finite differences, ideal-gas limits, round trips between flashes).
 """
@@ -11,7 +11,7 @@ import pytest
 from rotary_vane.thermo.fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point
 
 REQUIRED_FLUIDS = ("R134a", "Air", "R410A", "R1234yf", "R290", "CO2")
-SPEC_SUCTION = (0.2928e6, 283.15, 1.3179e6)           # SPEC §7.1: p_s, T_s, p_d for R134a
+MODEL_DOC_SUCTION = (0.2928e6, 283.15, 1.3179e6)           # docs/model.md §7.1: p_s, T_s, p_d for R134a
 
 
 @pytest.fixture(scope="module")
@@ -36,11 +36,11 @@ def test_gas_constant_is_universal_constant_over_molar_mass(fluids, check):
 
 
 def test_spec_saturation_check_values(fluids, check):
-    # SPEC §7.1: PropsSI('P','T',273.15,'Q',1,'R134a') = 292 803 Pa, ...323.15... = 1 317 905 Pa
+    # docs/model.md §7.1: PropsSI('P','T',273.15,'Q',1,'R134a') = 292 803 Pa, ...323.15... = 1 317 905 Pa
     r134a = fluids["R134a"]
     check("T_sat(292803 Pa) - 273.15 K", abs(r134a.saturation_temperature(292803.0) - 273.15), 2e-4)
     check("T_sat(1317905 Pa) - 323.15 K", abs(r134a.saturation_temperature(1317905.0) - 323.15), 2e-4)
-    check("p_dew(273.15 K) vs SPEC", abs(r134a.dew_pressure(273.15) / 292803.0 - 1.0), 2e-6)
+    check("p_dew(273.15 K) vs docs/model.md §7.1", abs(r134a.dew_pressure(273.15) / 292803.0 - 1.0), 2e-6)
 
 
 @pytest.mark.parametrize("name", REQUIRED_FLUIDS)
@@ -60,7 +60,7 @@ def test_dew_line_round_trip_and_above_critical(fluids, name, check):
 
 @pytest.mark.parametrize("name", REQUIRED_FLUIDS)
 def test_pressure_temperature_derivative_matches_finite_difference(fluids, name, check):
-    # SPEC §11 T19: CoolProp (dp/dT)_rho vs a central difference of p at constant rho (1e-6)
+    # docs/model.md §11 T19: CoolProp (dp/dT)_rho vs a central difference of p at constant rho (1e-6)
     fluid = fluids[name]
     pressure = 2.0 * (fluid.dew_pressure(0.8 * fluid.critical_temperature)
                       if 0.8 * fluid.critical_temperature > fluid.triple_temperature else 1e5)
@@ -104,7 +104,7 @@ def test_ideal_gas_exponent_textbook_values_and_dilute_limit(fluids, check):
 
 def test_isentropic_and_pressure_temperature_flashes_round_trip(fluids, check):
     fluid = fluids["R134a"]
-    suction_pressure, suction_temperature, discharge_pressure = SPEC_SUCTION
+    suction_pressure, suction_temperature, discharge_pressure = MODEL_DOC_SUCTION
     density = fluid.density(suction_temperature, suction_pressure)
     suction = fluid.properties(suction_temperature, density)
     check("p(T, rho(T, p)) = p", abs(suction.pressure / suction_pressure - 1.0), 1e-10)
@@ -147,7 +147,7 @@ def test_bad_state_inputs_name_the_variable(fluids, method, args, name):
 
 
 def test_spec_operating_points_are_accepted(fluids, check):
-    check("SPEC suction superheat 10 K", abs(check_operating_point(fluids["R134a"], *SPEC_SUCTION) - 10.0), 0.01)
+    check("docs/model.md §7.1 suction superheat 10 K", abs(check_operating_point(fluids["R134a"], *MODEL_DOC_SUCTION) - 10.0), 0.01)
     assert check_operating_point(fluids["Air"], 101325.0, 293.15, 5e5) > 100.0
     # supercritical suction gas (CO2 above p_crit and T_crit) is outside the dome: accepted
     assert check_operating_point(fluids["CO2"], 8e6, 350.0, 12e6) > 40.0
@@ -165,7 +165,7 @@ def test_superheat_margin_is_enforced_at_the_suction(fluids, name):
 
 def test_operating_point_errors_name_variable_value_and_range(fluids):
     r134a, co2 = fluids["R134a"], fluids["CO2"]
-    p_s, t_s, p_d = SPEC_SUCTION
+    p_s, t_s, p_d = MODEL_DOC_SUCTION
     with pytest.raises(ValueError, match=r"discharge_pressure=292800\.0 .*allowed: > suction_pressure"):
         check_operating_point(r134a, p_s, t_s, p_s)
     with pytest.raises(ValueError, match=r"discharge_pressure=100000\.0 .*allowed: > suction_pressure"):

@@ -1,7 +1,7 @@
-"""Geometry checks: displacement laws (SPEC §2.3), pitch curve and stator envelope (SPEC §11 T1), closest point
+"""Geometry checks: displacement laws (docs/model.md §2.3), pitch curve and stator envelope (docs/model.md §11 T1), closest point
 (T1b) and vane mass properties (T2).
 
-Expected values come from the SPEC's closed forms and tables or from independent numerics written here
+Expected values come from the closed forms and tables of docs/model.md or from independent numerics written here
 (finite differences, complex-step derivatives, brute-force search, scipy quadrature/minimisation).
 """
 import math
@@ -18,7 +18,7 @@ from rotary_vane.mechanics.geometry import (closest_pitch_parameter, law_argumen
                                 stator_point, stator_regularity)
 from rotary_vane.mechanics.machine import machine_from_parameters, vane_mass_properties
 
-H = 5.0e-3            # SPEC §9 stroke
+H = 5.0e-3            # docs/model.md §9 stroke
 R_ROTOR = 30.0e-3
 RHO = 2.0e-3
 R0 = R_ROTOR - RHO
@@ -50,11 +50,11 @@ def law_breakpoints(name, lobes, bottom_dwell=0.0, top_dwell=0.0):
 
 
 # ----------------------------------------------------------------------------------------------------------
-# SPEC §2.3: the four displacement laws
+# docs/model.md §2.3: the four displacement laws
 
 
 def reference_law(name, lobes, theta, stroke=H, bottom_dwell=0.0, top_dwell=0.0):
-    """Closed forms of SPEC §2.3 (and the standard 3-4-5 / dwell cam laws), written independently."""
+    """Closed forms of docs/model.md §2.3 (and the standard 3-4-5 / dwell cam laws), written independently."""
     z, h = lobes, stroke
     if name == "harmonic":
         return np.array([h / 2 * (1 - math.cos(z * theta)), h / 2 * z * math.sin(z * theta),
@@ -169,7 +169,7 @@ def test_displacement_derivatives_against_finite_differences(check, name, lobes)
 @pytest.mark.parametrize("name", list(LAW_CASES))
 def test_displacement_continuity_at_breakpoints(check, name):
     """s and s' are continuous for every law; s'' too, except for harmonic_dwell, which is only C1 by design:
-    its s'' jumps by (h/2)(pi/beta_r)^2 at each end of a rise or return (SPEC §2.3 option 3)."""
+    its s'' jumps by (h/2)(pi/beta_r)^2 at each end of a rise or return (docs/model.md §2.3 option 3)."""
     lobes = 3
     dwells = LAW_CASES[name]
     scale = derivative_scales(lobes)
@@ -196,7 +196,7 @@ def test_displacement_continuity_at_breakpoints(check, name):
 
 
 def test_cycloidal_peak_acceleration_ratio(check):
-    """SPEC §2.3: the cycloidal peak acceleration is 4/pi = 1.27 times the harmonic one."""
+    """docs/model.md §2.3: the cycloidal peak acceleration is 4/pi = 1.27 times the harmonic one."""
     theta = np.linspace(0, TWO_PI / 3, 20001)
     harmonic = max(abs(law_call("harmonic", 3, t)[2]) for t in theta)
     cycloidal = max(abs(law_call("cycloidal", 3, t)[2]) for t in theta)
@@ -205,7 +205,7 @@ def test_cycloidal_peak_acceleration_ratio(check):
 
 
 # ----------------------------------------------------------------------------------------------------------
-# T1: pitch curve and stator envelope (SPEC §2.4, §2.5)
+# T1: pitch curve and stator envelope (docs/model.md §2.4, §2.5)
 
 
 def params_for(name="harmonic", lobes=3, stator_clearance=0.0, **extra):
@@ -298,14 +298,14 @@ def test_stator_against_independent_closed_form(check, reference, lobes, clearan
           np.max(np.abs(got_kappa - kappa_c / (1 + d * kappa_c))) / np.max(np.abs(kappa_c)), 1e-12)
 
 
-# SPEC §2.5 table: z -> (min(1 + d kappa_C), smallest convex pitch radius [mm], max beta [deg], A_lobe [mm2])
-SPEC_TABLE = {3: (1.014, 19.62, 13.9, 168.81), 5: (0.912, 11.40, 22.4, 103.27),
+# docs/model.md §2.5 table: z -> (min(1 + d kappa_C), smallest convex pitch radius [mm], max beta [deg], A_lobe [mm2])
+MODEL_DOC_T1_TABLE = {3: (1.014, 19.62, 13.9, 168.81), 5: (0.912, 11.40, 22.4, 103.27),
               7: (0.759, 7.00, 29.9, 75.79), 9: (0.555, 4.62, 36.5, 60.95)}
 
 
-@pytest.mark.parametrize("lobes", sorted(SPEC_TABLE))
+@pytest.mark.parametrize("lobes", sorted(MODEL_DOC_T1_TABLE))
 def test_regularity_matches_table(check, reference, lobes):
-    expected = SPEC_TABLE[lobes][0]
+    expected = MODEL_DOC_T1_TABLE[lobes][0]
     p = params_for("harmonic", lobes)
     code_min, _ = stator_regularity(p)
     # independent: closed-form curvature on a dense grid, refined with a bounded scalar minimiser
@@ -317,16 +317,16 @@ def test_regularity_matches_table(check, reference, lobes):
     refined = minimize_scalar(lambda x: 1 + RHO * ref.curvature(x), bounds=(lo, hi), method="bounded",
                               options=dict(xatol=1e-12)).fun
     independent = min(refined, values.min())
-    check("T1 min(1 + d kappa_C): independent vs SPEC table", abs(independent - expected), 0.002)
-    check("T1 min(1 + d kappa_C): stator_regularity vs SPEC table", abs(code_min - expected), 0.002)
+    check("T1 min(1 + d kappa_C): independent vs docs/model.md T1 table", abs(independent - expected), 0.002)
+    check("T1 min(1 + d kappa_C): stator_regularity vs docs/model.md T1 table", abs(code_min - expected), 0.002)
     check("T1 min(1 + d kappa_C): stator_regularity vs independent", abs(code_min - independent), 1e-9)
     assert code_min > 0
 
 
-@pytest.mark.parametrize("lobes", sorted(SPEC_TABLE))
+@pytest.mark.parametrize("lobes", sorted(MODEL_DOC_T1_TABLE))
 def test_pitch_radius_and_pressure_angle_match_table(check, lobes):
-    """Smallest convex pitch radius 1/max(kappa_C) and max pressure angle beta = angle(n, e_r) (SPEC §2.5)."""
-    _, radius_mm, beta_deg, _ = SPEC_TABLE[lobes]
+    """Smallest convex pitch radius 1/max(kappa_C) and max pressure angle beta = angle(n, e_r) (docs/model.md §2.5)."""
+    _, radius_mm, beta_deg, _ = MODEL_DOC_T1_TABLE[lobes]
     args = law_arguments(params_for("harmonic", lobes))
     kappa_max = 0.0
     beta_max = 0.0
@@ -334,14 +334,14 @@ def test_pitch_radius_and_pressure_angle_match_table(check, lobes):
         cx, cy, nx, ny, _, kappa = pitch_frame(u, *args)
         kappa_max = max(kappa_max, kappa)
         beta_max = max(beta_max, abs(math.atan2(cx * ny - cy * nx, cx * nx + cy * ny)))
-    check("T1 smallest convex pitch radius vs SPEC table [mm]", abs(1e3 / kappa_max - radius_mm), 0.005 + 1e-9)
-    check("T1 max pressure angle vs SPEC table [deg]", abs(math.degrees(beta_max) - beta_deg), 0.05 + 1e-9)
+    check("T1 smallest convex pitch radius vs docs/model.md T1 table [mm]", abs(1e3 / kappa_max - radius_mm), 0.005 + 1e-9)
+    check("T1 max pressure angle vs docs/model.md T1 table [deg]", abs(math.degrees(beta_max) - beta_deg), 0.05 + 1e-9)
 
 
 @pytest.mark.parametrize("clearance", [0.0, 0.1e-3])
-@pytest.mark.parametrize("lobes", sorted(SPEC_TABLE))
+@pytest.mark.parametrize("lobes", sorted(MODEL_DOC_T1_TABLE))
 def test_smallest_stator_radius_is_valley_gap(check, lobes, clearance):
-    """min |S| = R_r + c_S (SPEC §2.5), to 1e-9 m: dense grid of |S| then a bounded minimiser."""
+    """min |S| = R_r + c_S (docs/model.md §2.5), to 1e-9 m: dense grid of |S| then a bounded minimiser."""
     p = params_for("harmonic", lobes, clearance)
     args = law_arguments(p)
     d = p.envelope_offset
@@ -371,13 +371,13 @@ def independent_lobe_area(reference, lobes, clearance):
     return 0.5 * value - 0.5 * R_ROTOR ** 2 * TWO_PI / lobes
 
 
-@pytest.mark.parametrize("lobes", sorted(SPEC_TABLE))
+@pytest.mark.parametrize("lobes", sorted(MODEL_DOC_T1_TABLE))
 def test_lobe_area_matches_table(check, reference, lobes):
-    expected = SPEC_TABLE[lobes][3] * 1e-6
+    expected = MODEL_DOC_T1_TABLE[lobes][3] * 1e-6
     independent = independent_lobe_area(reference, lobes, 0.0)
     code = lobe_area(params_for("harmonic", lobes))
-    check("T1 A_lobe independent vs SPEC table, rel.", abs(independent / expected - 1), 1e-3)
-    check("T1 A_lobe lobe_area() vs SPEC table, rel.", abs(code / expected - 1), 1e-3)
+    check("T1 A_lobe independent vs docs/model.md T1 table, rel.", abs(independent / expected - 1), 1e-3)
+    check("T1 A_lobe lobe_area() vs docs/model.md T1 table, rel.", abs(code / expected - 1), 1e-3)
     check("T1 A_lobe lobe_area() vs independent quad, rel.", abs(code / independent - 1), 1e-9)
 
 
@@ -407,7 +407,7 @@ def test_invalid_stator_raises():
 
 
 # ----------------------------------------------------------------------------------------------------------
-# T1b: closest point of the pitch curve (SPEC §2.6)
+# T1b: closest point of the pitch curve (docs/model.md §2.6)
 
 
 def brute_force_closest(reference, lobes, targets, samples=20000, polish=False):
@@ -483,7 +483,7 @@ def test_closest_point_newton_against_brute_force(check, reference, lobes, count
 
 def fallback_start(ref, tx, ty):
     """A start on the far side of the rotor where f'(u) = -|C'|^2 + (T - C).C'' >= 0 (reference formulas), so
-    that Newton cannot be used there and the Brent safeguard of SPEC §2.6 must run."""
+    that Newton cannot be used there and the Brent safeguard of docs/model.md §2.6 must run."""
     for k in range(41):
         for sign in (1, -1):
             u = math.atan2(ty, tx) + math.pi + sign * 0.02 * k
@@ -529,7 +529,7 @@ def test_closest_pitch_frame_against_brute_force(check, reference):
 
 
 # ----------------------------------------------------------------------------------------------------------
-# T2: vane mass properties (SPEC §2.1)
+# T2: vane mass properties (docs/model.md §2.1)
 
 
 def stadium_mass_properties(thickness, length, axial_length, density):
@@ -557,17 +557,17 @@ def stadium_mass_properties(thickness, length, axial_length, density):
 def test_default_vane_mass_properties_match_spec(check):
     p = CompressorParameters()
     mass, inertia, xi_g = vane_mass_properties(p.vane_thickness, p.vane_length, p.axial_length, p.vane_density)
-    check("T2 m3 vs SPEC 30.345 g, rel.", abs(mass / 30.345e-3 - 1), 1e-3)
-    check("T2 J3 vs SPEC 8.232e-7, rel.", abs(inertia / 8.232e-7 - 1), 1e-3)
-    check("T2 xi_G vs SPEC -7.209 mm, rel.", abs(xi_g / -7.209e-3 - 1), 1e-3)
+    check("T2 m3 vs docs/model.md 30.345 g, rel.", abs(mass / 30.345e-3 - 1), 1e-3)
+    check("T2 J3 vs docs/model.md 8.232e-7, rel.", abs(inertia / 8.232e-7 - 1), 1e-3)
+    check("T2 xi_G vs docs/model.md -7.209 mm, rel.", abs(xi_g / -7.209e-3 - 1), 1e-3)
     m = machine_from_parameters(p)
-    check("T2 xi_T vs SPEC 7.209 mm, rel.", abs(m.tip_centre / 7.209e-3 - 1), 1e-3)
-    check("T2 xi_B vs SPEC -8.791 mm, rel.", abs(m.bottom_face / -8.791e-3 - 1), 1e-3)
+    check("T2 xi_T vs docs/model.md 7.209 mm, rel.", abs(m.tip_centre / 7.209e-3 - 1), 1e-3)
+    check("T2 xi_B vs docs/model.md -8.791 mm, rel.", abs(m.bottom_face / -8.791e-3 - 1), 1e-3)
     assert m.vane_mass == mass and m.vane_inertia == inertia
 
 
 @pytest.mark.parametrize("thickness,length,axial,density", [
-    (4.0e-3, 18.0e-3, 55.0e-3, 7850.0),       # SPEC §9
+    (4.0e-3, 18.0e-3, 55.0e-3, 7850.0),       # docs/model.md §9
     (3.0e-3, 22.0e-3, 40.0e-3, 2700.0),
     (6.0e-3, 15.0e-3, 70.0e-3, 7850.0),
 ])

@@ -1,6 +1,6 @@
-"""Kinematics and the equations of motion: speed input (SPEC §3.2), reported kinematics (SPEC §11 T3) and the
+"""Kinematics and the equations of motion: speed input (docs/model.md §3.2), reported kinematics (docs/model.md §11 T3) and the
 constraint consistency of the reduced form (T4), with the generalized forces recomputed independently from
-SPEC §4-§6.2 (tests/conftest.py)."""
+docs/model.md §4-§6.2 (tests/conftest.py)."""
 import math
 
 import numpy as np
@@ -11,18 +11,18 @@ from rotary_vane.mechanics.dynamics import reported_kinematics
 from rotary_vane.mechanics.speed import rotor_motion
 
 RPM = 2 * math.pi / 60
-XI_G = -7.209e-3              # SPEC §2.1 default CG position (the transforms hold for any value)
+XI_G = -7.209e-3              # docs/model.md §2.1 default CG position (the transforms hold for any value)
 
 
 def harmonic(theta, stroke, lobes):
-    """s, s', s'' of SPEC §2.3 option 1."""
+    """s, s', s'' of docs/model.md §2.3 option 1."""
     a = 0.5 * stroke
     return (a * (1 - math.cos(lobes * theta)), a * lobes * math.sin(lobes * theta),
             a * lobes ** 2 * math.cos(lobes * theta))
 
 
 # ----------------------------------------------------------------------------------------------------------
-# SPEC §3.2: speed input
+# docs/model.md §3.2: speed input
 
 
 @pytest.mark.parametrize("theta0", [0.0, 0.02])
@@ -37,7 +37,7 @@ def test_speed_laws_match_closed_form(check, reference, theta0):
             expected = np.array(reference.speed_law(t, shape, omega_ss, 0.4, theta0))
             scale = np.array([omega_ss * 0.8 + 1, omega_ss, omega_ss / 0.4 * 2])
             worst = max(worst, np.max(np.abs(got - expected) / scale))
-    check("speed law vs SPEC §3.2 closed form, rel.", worst, 1e-13)
+    check("speed law vs docs/model.md §3.2 closed form, rel.", worst, 1e-13)
     # theta_dot = omega and omega_dot = theta_ddot (central differences), continuous at the ramp end
     step = 1e-7
     for t in (0.05, 0.2, 0.33, 0.5):
@@ -62,7 +62,7 @@ def test_linear_ramp():
 
 
 # ----------------------------------------------------------------------------------------------------------
-# T3: the reported kinematics of SPEC §3.4 on the exact nominal trajectory
+# T3: the reported kinematics of docs/model.md §3.4 on the exact nominal trajectory
 
 
 def nominal_motion(theta, omega, theta_ddot, stroke, lobes, base_radius, xi_g):
@@ -113,7 +113,7 @@ def test_reported_kinematics_on_nominal_trajectory(check, reference, shape, lobe
 
 
 def test_reported_kinematics_peaks_1500rpm(check, reference):
-    """SPEC §11 T3: 1500 rpm, z = 3: max s = 5 mm, max v_r = 1.178 m/s, max a_r = 555.2 m/s^2."""
+    """docs/model.md §11 T3: 1500 rpm, z = 3: max s = 5 mm, max v_r = 1.178 m/s, max a_r = 555.2 m/s^2."""
     period = 2 * math.pi / (1500 * RPM)
     # 12000 intervals per revolution from theta0 = 0 include the peaks of s, v_r and a_r (theta = k pi/6)
     got, _ = reported_along(np.linspace(0, period, 12001), "constant", 3, reference=reference, theta0=0.0)
@@ -230,7 +230,7 @@ def random_states(sim, count, seed, reference):
 
 
 def augmented_solution(masses, q, gamma_theta):
-    """Solve [M Phi_q^T; Phi_q 0][q_ddot; lambda] = [Q; gamma] (SPEC §3.1) with numpy."""
+    """Solve [M Phi_q^T; Phi_q 0][q_ddot; lambda] = [Q; gamma] (docs/model.md §3.1) with numpy."""
     m1, j1, m2, j2, m3, j3 = masses
     mass = np.diag([m1, m1, j1, m2, m2, j2, m3, m3, j3])
     jacobian = np.zeros((6, 9))
@@ -247,7 +247,7 @@ def augmented_solution(masses, q, gamma_theta):
 @pytest.mark.parametrize("case", list(PARAMETER_CASES))
 def test_augmented_system_equals_reduced_form(check, reference, contact_reference, kernel, case):
     """T4: at random perturbed states during the ramp (theta_ddot != 0), the applied forces Q1, Q2, Q3 recomputed
-    independently from SPEC §4-§6.2 and put through the 15x15 augmented solve give the kernel's q_ddot3
+    independently from docs/model.md §4-§6.2 and put through the 15x15 augmented solve give the kernel's q_ddot3
     (dydt[3:6]) and lambda (stator reactions = stator_force_x/y, stator_contact_moment; rotor pin reactions =
     rotor_force_x/y, lambda6 = -driving_torque), to 1e-10 relative."""
     p = CompressorParameters(**PARAMETER_CASES[case])
@@ -283,7 +283,7 @@ def test_augmented_system_equals_reduced_form(check, reference, contact_referenc
         expected_moment = -contact_reference.cross(tip[0]["P"], tip[0]["force"]) if tip else 0.0
         worst_tip_moment = max(worst_tip_moment, abs(out["stator_contact_moment"] - expected_moment)
                                / max(abs(expected_moment), 1e-3))
-        # powers of SPEC §6.4 and the stator gas moment
+        # powers of docs/model.md §6.4 and the stator gas moment
         powers = np.array([dydt[7], dydt[8], dydt[9], out["stator_gas_moment"]])
         expected_powers = np.array([-ref.gas_power, ref.friction_power, ref.damping_power, ref.stator_gas_moment])
         power_scale = np.array([abs(ref.gas_power), ref.friction_power, abs(ref.damping_power),

@@ -1,4 +1,4 @@
-"""Parameter declarations and validation (SPEC §9), speed-input validation and the Simulation's argument checks.
+"""Parameter declarations and validation (docs/model.md §9), speed-input validation and the Simulation's argument checks.
 
 Every rejected value must raise ValueError whose message names the parameter, shows the bad value and says
 what is allowed.
@@ -25,7 +25,7 @@ def assert_rejected(name, value, **overrides):
 
 
 def test_defaults_match_spec_table():
-    """SPEC §9 default parameter table."""
+    """docs/model.md §9 default parameter table."""
     p = CompressorParameters()
     expected = dict(lobes=3, displacement_law="harmonic", rotor_radius=30.0e-3, stroke=5.0e-3, vane_thickness=4.0e-3,
                     vane_length=18.0e-3, axial_length=55.0e-3, slot_bottom_radius=9.5e-3, edge_radius=1.0e-3,
@@ -43,7 +43,7 @@ def test_defaults_match_spec_table():
             assert getattr(p, name) == value, name
         else:
             assert getattr(p, name) == pytest.approx(value, rel=1e-12), name
-    # derived values (SPEC §2.1, §2.2, §2.3, §2.5)
+    # derived values (docs/model.md §2.1, §2.2, §2.3, §2.5)
     assert p.tip_radius == pytest.approx(2.0e-3)
     assert p.base_radius == pytest.approx(28.0e-3)
     assert p.slot_width == pytest.approx(4.0e-3)
@@ -104,7 +104,7 @@ def test_non_numbers_rejected(name):
 
 
 def test_vane_too_short_for_the_stroke():
-    """At full stroke the vane must stay engaged in the slot (SPEC §2.1 l_v >= 13 mm engagement rationale)."""
+    """At full stroke the vane must stay engaged in the slot (docs/model.md §2.1 l_v >= 13 mm engagement rationale)."""
     message = assert_rejected("vane_length", 8e-3)
     assert "stroke" in message
     CompressorParameters(vane_length=18e-3)

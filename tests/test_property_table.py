@@ -1,4 +1,4 @@
-"""thermo.property_table: the numba (T, ln rho) table of p, h, c_v, (dp/dT)_rho (SPEC §7.3) against CoolProp HEOS.
+"""thermo.property_table: the numba (T, ln rho) table of p, h, c_v, (dp/dT)_rho (docs/model.md §7.3) against CoolProp HEOS.
 
 The reference is `Fluid.properties`, CoolProp HEOS with its own phase determination at the query point (the table
 is built from the gas branch at the nodes only). Every table here lives in a temporary cache folder.

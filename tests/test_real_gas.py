@@ -1,4 +1,4 @@
-"""Level 1: real-gas chambers coupled to the vane (issue 3; SPEC §7, §11 T19).
+"""Level 1: real-gas chambers coupled to the vane (issue 3; docs/model.md §7, §11 T19).
 
 Checks: per-revolution mass and energy conservation with every flow path open; a closed chamber compressed by the
 mechanism follows CoolProp's isentrope; the control-volume equations against closed forms; the nozzle paths'
@@ -52,7 +52,7 @@ def test_steady_state_within_a_few_revolutions(nominal):
 
 
 def test_gas_power_matches_the_chambers_pv_work(nominal):
-    """P_out (gas forces on vane and rotor, SPEC §6.4) and the chambers' -sum p dV/dt differ only by the work of
+    """P_out (gas forces on vane and rotor, docs/model.md §6.4) and the chambers' -sum p dV/dt differ only by the work of
     the load-free gaps and the back chamber, which is small: within 2 %."""
     rev = revolutions(nominal)[-1]
     assert abs(rev.indicated_power / rev.output_power - 1.0) < 0.02
@@ -96,7 +96,7 @@ def test_closed_chamber_follows_the_isentrope():
 
 
 def test_chamber_equations_closed_forms():
-    """SPEC §7.3 against closed forms: a closed chamber (no flow) keeps its mass (drho/dt = -rho V'/V) and, for
+    """docs/model.md §7.3 against closed forms: a closed chamber (no flow) keeps its mass (drho/dt = -rho V'/V) and, for
     an ideal gas (dp/dT)_rho = p/T, heats as dT/dt = -(R/c_v) T V'/V; a pure inflow at the chamber's own enthalpy
     into a rigid ideal-gas chamber heats it as dT/dt = R T m' / (m c_v) (flow work of the entering gas)."""
     t, rho, volume, rate = 300.0, 10.0, 1e-5, -2e-3
@@ -115,7 +115,7 @@ def test_chamber_equations_closed_forms():
 
 def test_nozzle_paths_are_continuous_and_antisymmetric():
     """The signed nozzle flow is antisymmetric in its two sides, continuous at the edge of its linear band
-    (SPEC §7.4 law outside it) and at the critical ratio, and choked below it (independent of p_down)."""
+    (docs/model.md §7.4 law outside it) and at the critical ratio, and choked below it (independent of p_down)."""
     args = (0.7, 20e-6)
     k, r = 1.1, 81.5
     p_up, t_up = 1e6, 330.0
@@ -152,7 +152,7 @@ def test_nearly_ideal_gas_agrees_with_level_half():
 
 @pytest.mark.slow
 def test_clearance_trends_hold_with_level_1():
-    """SPEC §11 T14 with Level 1: eta_m, <P_in> and <P_out> fall and <P_fric> does not fall as c grows."""
+    """docs/model.md §11 T14 with Level 1: eta_m, <P_in> and <P_out> fall and <P_fric> does not fall as c grows."""
     results = []
     for c in (0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3):
         results.append(revolutions(run(revs=3, slot_clearance=c, stator_clearance=c))[-1])

@@ -121,7 +121,7 @@ def test_ideal_gas_table_needs_an_operating_speed():
     dict(lobes=5), dict(lobes=7), dict(lobes=9),
 ])
 def test_alternative_models_run_and_conserve_energy(changes):
-    """Every option runs two revolutions at c = 0.05 mm and closes the energy balance (SPEC §6.4)."""
+    """Every option runs two revolutions at c = 0.05 mm and closes the energy balance (docs/model.md §6.4)."""
     params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3, **changes)
     sim = Simulation(params)
     sim.advance(2.2 * REVOLUTION)

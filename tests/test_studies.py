@@ -6,11 +6,11 @@ What is checked, on the written files only (the Markdown tables are parsed here,
 * the tables are well formed: as many cells as headers, numbers where numbers belong; a mode label names exactly
   the regions whose bits are set in its mask (bit k-1 = region ck); the dwell of all modes adds up to one
   revolution (60/rpm); the distinct-mode count equals the number of modes dwelling at least tau_min;
-* physics the figures show: the energy balance of every point closes (SPEC §11 T10); mechanical efficiency falls
+* physics the figures show: the energy balance of every point closes (docs/model.md §11 T10); mechanical efficiency falls
   with clearance at every speed, input power rises with speed at c = 0, every c > 0 has more distinct contact modes
-  than c = 0 (SPEC §11 T14, T15); friction power rises with the number of lobes; the vane centre's tangential offset
+  than c = 0 (docs/model.md §11 T14, T15); friction power rises with the number of lobes; the vane centre's tangential offset
   in the rotor frame never leaves the slot clearance band +-c_R/2 by more than the slot contacts' penetration at
-  that instant (geometry of SPEC §4.2-§4.3: G lies between the bottom corners and the mouth/tip level);
+  that instant (geometry of docs/model.md §4.2-§4.3: G lies between the bottom corners and the mouth/tip level);
 * bad input: --workers 0 and a report of a folder without studies fail with the variable, value and allowed range.
 """
 from __future__ import annotations
@@ -29,7 +29,7 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 TIMEOUT = 600.0                            # s per study on a busy machine (a cold numba compile included)
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-MODE_DWELL_MIN_MS = 0.010                  # tau_min of the default parameters (SPEC §9), in ms
+MODE_DWELL_MIN_MS = 0.010                  # tau_min of the default parameters (docs/model.md §9), in ms
 SLOT_CLEARANCE_UM = 50.0                   # c_R of the lobe study (0.05 mm)
 TILT_ALLOWANCE_UM = 0.1                    # t/2 (1 - cos tilt) < 0.03 um for tilts below 10 mrad
 
@@ -147,7 +147,7 @@ def test_contact_mode_tables_are_consistent(studies):
 # physics shown by the figures ------------------------------------------------------------------------------------
 def test_energy_balance_closes_at_every_point(studies):
     for point, row in powers(studies).items():
-        assert abs(row["energy residual [%]"]) < 0.5, point            # SPEC §11 T10
+        assert abs(row["energy residual [%]"]) < 0.5, point            # docs/model.md §11 T10
         assert row["<P_in> [W]"] > 0.0 and 0.0 < row["eta_m [%]"] < 100.0, point
 
 
@@ -175,7 +175,7 @@ def test_friction_power_rises_with_lobes(studies):
     rows = sorted(records(studies / "lobes" / "lobes.md"), key=lambda r: int(r["z"]))
     friction = [float(r["<P_fric> [W]"]) for r in rows]
     assert len(friction) >= 2 and np.all(np.diff(friction) > 0.0), friction
-    assert all(float(r["min(1 + d kappa_C)"]) > 0.0 for r in rows)      # a regular stator (SPEC §2.5)
+    assert all(float(r["min(1 + d kappa_C)"]) > 0.0 for r in rows)      # a regular stator (docs/model.md §2.5)
 
 
 def test_vane_centre_stays_in_the_slot_band(studies):

@@ -1,4 +1,4 @@
-"""Physics checks of thermo: nozzle (SPEC §7.4) and pressure tables (SPEC §6.1, §7.5)."""
+"""Physics checks of thermo: nozzle (docs/model.md §7.4) and pressure tables (docs/model.md §6.1, §7.5)."""
 
 import math
 
@@ -11,7 +11,7 @@ from rotary_vane.thermo import (
     polytropic_pressure_table,
 )
 
-# SPEC §9 defaults
+# docs/model.md §9 defaults
 ROTOR_RADIUS = 30e-3
 STROKE = 5e-3
 LOBES = 3
@@ -32,7 +32,7 @@ CLEARANCES = [0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3]
 
 
 def thin_vane_volume(phase):
-    """SPEC §6.5 with harmonic s = h/2 (1 - cos z phase), integrated in closed form."""
+    """docs/model.md §6.5 with harmonic s = h/2 (1 - cos z phase), integrated in closed form."""
     amplitude = STROKE / 2.0
 
     def antiderivative(angle):  # of R_r s + s^2/2
@@ -145,7 +145,7 @@ def test_leakage_lowers_peak_pressure_monotonically(peak_pressures):
 
 
 def test_port_throttling_over_compresses_without_leak(peak_pressures):
-    # SPEC §7.5: ~1.463 MPa at cS = 0, 1500 rpm (~11 % over-compression)
+    # docs/model.md §7.5: ~1.463 MPa at cS = 0, 1500 rpm (~11 % over-compression)
     assert DISCHARGE_PRESSURE < peak_pressures[0] < 1.3 * DISCHARGE_PRESSURE
 
 

@@ -1,9 +1,9 @@
-"""Chamber thermodynamics: isentropic-nozzle flow (SPEC §7.4) and the
-leading-chamber pressure tables p_L(phase) of Level 0 (SPEC §6.1) and
-Level 0.5 (SPEC §7.5).
+"""Chamber thermodynamics: isentropic-nozzle flow (docs/model.md §7.4) and the
+leading-chamber pressure tables p_L(phase) of Level 0 (docs/model.md §6.1) and
+Level 0.5 (docs/model.md §7.5).
 
 This package is independent of ``mechanics``: the chamber volume V(phase)
-and dV/dphase are passed in by the caller (thin-vane volume of SPEC §6.5).
+and dV/dphase are passed in by the caller (thin-vane volume of docs/model.md §6.5).
 """
 
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Real-gas control-volume balance in (T, rho) and the flow paths between chambers (SPEC §7.3, §7.4).
+"""Real-gas control-volume balance in (T, rho) and the flow paths between chambers (docs/model.md §7.3, §7.4).
 
 Pure numba functions: a chamber is a volume, its rate of change and the mass and enthalpy flows through its
 paths; the fluid properties (p, h, c_v, (dp/dT)_rho) are evaluated by the caller (thermo.property_table).
@@ -14,7 +14,7 @@ from .property_table import table_properties
 @njit(cache=True)
 def chamber_derivatives(temperature, density, volume, volume_rate, mass_in, enthalpy_in, mass_out, enthalpy,
                         heat_capacity_v, pressure_temperature_derivative, heat_rate):
-    """(dT/dt, drho/dt) of one chamber (SPEC §7.3, PDSim's form):
+    """(dT/dt, drho/dt) of one chamber (docs/model.md §7.3, PDSim's form):
 
         dm/dt   = sum m_in - sum m_out
         drho/dt = (dm/dt - rho dV/dt) / V
@@ -38,7 +38,7 @@ LINEAR_FLOW_BAND = 2e-3      # relative pressure difference below which a path's
 @njit(cache=True)
 def signed_nozzle_flow(discharge_coefficient, area, pressure_a, temperature_a, pressure_b, temperature_b,
                        heat_capacity_ratio, gas_constant):
-    """Mass flow [kg/s] from side a to side b through an isentropic nozzle (SPEC §7.4); negative when the gas
+    """Mass flow [kg/s] from side a to side b through an isentropic nozzle (docs/model.md §7.4); negative when the gas
     flows from b to a (the upstream side's temperature is used).
 
     The nozzle law has an infinite derivative d m_dot / d p at equal pressures (m_dot ~ sqrt(p_up - p_down)),

@@ -1,4 +1,4 @@
-"""A pure or pseudo-pure working fluid from CoolProp's Helmholtz equations of state (SPEC §7.1, §7.3, §7.4).
+"""A pure or pseudo-pure working fluid from CoolProp's Helmholtz equations of state (docs/model.md §7.1, §7.3, §7.4).
 
 `Fluid(name)` wraps two `CoolProp.AbstractState("HEOS", name)` objects: one with CoolProp's own phase
 determination (exact reference values, saturation, flashes) and one with the gas phase imposed, which evaluates
@@ -6,8 +6,8 @@ the Helmholtz energy directly at (T, rho) without any phase test (the smooth, me
 branch that the property table is built from, `thermo.property_table`). Everything is SI: K, Pa, kg/m^3, J/kg,
 J/(kg K). Nothing here is called in the time loop; the fast path is the numba table.
 
-`check_operating_point` validates a compressor operating point before any work starts (SPEC §7.1): the suction
-state must be a gas at least `SUPERHEAT_MARGIN` = 1 K outside the two-phase dome (SPEC §7.3: T > T_sat(p) + 1 K),
+`check_operating_point` validates a compressor operating point before any work starts (docs/model.md §7.1): the suction
+state must be a gas at least `SUPERHEAT_MARGIN` = 1 K outside the two-phase dome (docs/model.md §7.3: T > T_sat(p) + 1 K),
 and the discharge pressure must exceed the suction pressure.
 """
 from __future__ import annotations
@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-UNIVERSAL_GAS_CONSTANT = 8314.462        # J/(kmol K), SPEC §7.4: R = 8314.462/M with M in kg/kmol
-SUPERHEAT_MARGIN = 1.0                   # K, smallest accepted distance from the dew line (SPEC §7.3)
+UNIVERSAL_GAS_CONSTANT = 8314.462        # J/(kmol K), docs/model.md §7.4: R = 8314.462/M with M in kg/kmol
+SUPERHEAT_MARGIN = 1.0                   # K, smallest accepted distance from the dew line (docs/model.md §7.3)
 LIST_FLUIDS_HINT = "list valid names with CoolProp.CoolProp.get_global_param_string('FluidsList')"
 
 
@@ -209,7 +209,7 @@ class Fluid:
         return self.state_at_pressure_entropy(pressure, entropy).enthalpy
 
     def ideal_gas_exponent(self, temperature):
-        """k = c_p0/(c_p0 - R) at T with R = 8314.462/M (SPEC §7.4); c_p0 depends on T only."""
+        """k = c_p0/(c_p0 - R) at T with R = 8314.462/M (docs/model.md §7.4); c_p0 depends on T only."""
         CP = coolprop()
         temperature = self._check_temperature(temperature)
         ideal_gas_density = 1e-3 * self.critical_density      # c_p0 does not depend on density; any will do
@@ -224,7 +224,7 @@ class Fluid:
 
 
 def typical_operating_point(fluid: Fluid) -> tuple[float, float, float]:
-    """(p_s [Pa], T_s [K], p_d [Pa]) of a typical compressor duty: SPEC §7.1 for R134a and air; CO2 as a
+    """(p_s [Pa], T_s [K], p_d [Pa]) of a typical compressor duty: docs/model.md §7.1 for R134a and air; CO2 as a
     transcritical heat pump (3.5 -> 10 MPa, 283.15 K); other fluids evaporating at 0 °C with 10 K superheat and
     condensing at 50 °C."""
     if fluid.name == "R134a":
@@ -238,7 +238,7 @@ def typical_operating_point(fluid: Fluid) -> tuple[float, float, float]:
 
 def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, discharge_pressure,
                           superheat_margin=SUPERHEAT_MARGIN):
-    """Validate a compressor operating point (SPEC §7.1) before any work starts; ValueError otherwise.
+    """Validate a compressor operating point (docs/model.md §7.1) before any work starts; ValueError otherwise.
 
     Requires p_s > 0, T_s > 0, p_d > p_s, states inside the equation of state's range, and a suction gas at least
     `superheat_margin` outside the two-phase dome: T_s >= T_dew(p_s) + margin for p_s < p_crit, and

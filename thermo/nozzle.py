@@ -1,4 +1,4 @@
-"""Isentropic-nozzle mass flow of an ideal gas (SPEC §7.4)."""
+"""Isentropic-nozzle mass flow of an ideal gas (docs/model.md §7.4)."""
 
 import math
 
@@ -15,7 +15,7 @@ def isentropic_nozzle_mass_flow(
     heat_capacity_ratio,
     gas_constant,
 ):
-    """Mass flow [kg/s] through an isentropic nozzle, upstream -> downstream (SPEC §7.4).
+    """Mass flow [kg/s] through an isentropic nozzle, upstream -> downstream (docs/model.md §7.4).
 
     With pr = p_down/p_up and the critical ratio pr* = (2/(k+1))^(k/(k-1)):
 

@@ -1,8 +1,8 @@
-"""Leading-chamber pressure tables p_L(phase) over one lobe (SPEC §6.1, §7.5).
+"""Leading-chamber pressure tables p_L(phase) over one lobe (docs/model.md §6.1, §7.5).
 
 Both builders are generic: the caller passes the chamber volume V(phase)
 [m^3] (and dV/dphase [m^3/rad]) on a phase grid [rad]; for the reference
-model this is the thin-vane volume of SPEC §6.5. All quantities are SI.
+model this is the thin-vane volume of docs/model.md §6.5. All quantities are SI.
 """
 
 import math
@@ -71,7 +71,7 @@ def _check_pressures(suction_pressure, discharge_pressure):
 
 def polytropic_pressure_table(phase, volume, suction_pressure, discharge_pressure,
                               suction_close_phase, polytropic_exponent):
-    """Level-0 leading-chamber pressure p_L(phase) [Pa] (SPEC §6.1).
+    """Level-0 leading-chamber pressure p_L(phase) [Pa] (docs/model.md §6.1).
 
         p = p_s                                 for phase <  phase_sc
         p = min(p_s (V_sc / V)^n_p, p_d)        for phase >= phase_sc
@@ -97,7 +97,7 @@ def _ideal_gas_kernel(phase, volume, volume_derivative, time_step, angular_speed
                       suction_pressure, suction_temperature, discharge_pressure,
                       suction_close_phase, leak_area, leak_coefficient,
                       port_area, port_coefficient, heat_capacity_ratio, gas_constant):
-    """Explicit-Euler single-chamber ideal-gas CV march of SPEC §7.5."""
+    """Explicit-Euler single-chamber ideal-gas CV march of docs/model.md §7.5."""
     specific_heat_volume = gas_constant / (heat_capacity_ratio - 1.0)
     specific_heat_pressure = heat_capacity_ratio * specific_heat_volume
     pressure = np.empty(phase.size)
@@ -133,7 +133,7 @@ def ideal_gas_pressure_table(phase, volume, volume_derivative, angular_speed,
                              suction_close_phase, leak_area, leak_discharge_coefficient,
                              discharge_port_area, discharge_port_coefficient,
                              heat_capacity_ratio, gas_constant):
-    """Level-0.5 leading-chamber pressure p_L(phase) [Pa] (SPEC §6.1, §7.5).
+    """Level-0.5 leading-chamber pressure p_L(phase) [Pa] (docs/model.md §6.1, §7.5).
 
     One chamber of ideal gas (c_v = R/(k-1), c_p = k c_v), adiabatic, marched by
     explicit Euler over the uniform phase grid with dt = dphase/omega and
@@ -146,7 +146,7 @@ def ideal_gas_pressure_table(phase, volume, volume_derivative, angular_speed,
         dU/dt  = -p dV/dt - (m_leak + m_dis) c_p T
         dT/dt  = (dU/dt - c_v T dm/dt) / (m c_v)
 
-    with the nozzle of SPEC §7.4. Returns p at every grid point (float64).
+    with the nozzle of docs/model.md §7.4. Returns p at every grid point (float64).
     """
     phase, volume, suction_close_phase = _check_grid(phase, volume, suction_close_phase)
     volume_derivative = _check_array("volume_derivative", volume_derivative,

@@ -1,4 +1,4 @@
-"""Real-gas property table in (T, ln rho) for the chamber equations of SPEC §7.3, evaluated inside numba.
+"""Real-gas property table in (T, ln rho) for the chamber equations of docs/model.md §7.3, evaluated inside numba.
 
 The chamber equations need p, h, c_v and (dp/dT)_rho at the chamber state (T, rho) several times per step; CoolProp
 costs about 1.5 us per state from Python and cannot be called from nopython code (PERFORMANCE.md). This module
@@ -31,7 +31,7 @@ a cell the p and h errors were measured at most 1.4 times the centre's, so accep
 Saturation: the nodes come from the gas branch of the equation of state with the phase imposed (no phase test,
 `Fluid.gas_branch_state`), a smooth function across the dew line, so cells next to the dome are as accurate as any
 other. A state is accepted only if its superheat T - T_dew(p) is at least the envelope's margin (1 K by default,
-SPEC §7.3); for p >= p_crit, T >= T_crit + margin. At fixed T this is ln rho <= x_lim(T) with
+docs/model.md §7.3); for p >= p_crit, T >= T_crit + margin. At fixed T this is ln rho <= x_lim(T) with
 x_lim(T) = ln rho_gas(T, p_dew(T - margin)) (p rises with rho on the gas branch, T_dew rises with p);
 x_lim is tabulated on a T grid 8 times finer than the table's, each cell holding the smaller of its two end
 values (x_lim increases with T), so an accepted state is never closer to the dome than the margin; the price is
@@ -110,7 +110,7 @@ class PropertyTable(NamedTuple):
     inverse_dome_step: float               # 1/K, dome-limit cells start at temperature_min
     dome_log_density_limit: np.ndarray     # (n_dome,): largest accepted ln rho in each dome cell
     accurate_cell: np.ndarray              # (n_T - 1, n_x - 1) bool: the cell passed its check against HEOS
-    ideal_gas_exponent: np.ndarray         # (n_T,): k = c_p0/(c_p0 - R) at the T nodes (SPEC §7.4)
+    ideal_gas_exponent: np.ndarray         # (n_T,): k = c_p0/(c_p0 - R) at the T nodes (docs/model.md §7.4)
     superheat_margin: float                # K
     critical_temperature: float            # K
 
@@ -203,7 +203,7 @@ def table_properties(temperature, density, table):
 
 @numba.njit(cache=True)
 def table_ideal_gas_exponent(temperature, table):
-    """k = c_p0/(c_p0 - R) at T (SPEC §7.4), linear in T between the table's nodes; NaN outside its T range."""
+    """k = c_p0/(c_p0 - R) at T (docs/model.md §7.4), linear in T between the table's nodes; NaN outside its T range."""
     if not (table.temperature_min <= temperature <= table.temperature_max):
         return np.nan
     exponents = table.ideal_gas_exponent
@@ -518,7 +518,7 @@ def describe_status(status, temperature, density, table: PropertyTable, fluid: F
         if fluid is not None:
             detail = _saturation_detail(fluid, float(temperature), float(density))
         return (f"{where} is inside the two-phase dome or less than {envelope.superheat_margin:g} K of superheat "
-                f"away from it{detail}; the model needs a single-phase gas (SPEC §7.3)")
+                f"away from it{detail}; the model needs a single-phase gas (docs/model.md §7.3)")
     if status == STATUS_INACCURATE_CELL:
         return (f"{where} lies in a table cell that missed its accuracy check against HEOS (relative tolerances "
                 f"p, h, c_v, (dp/dT)_rho = {', '.join(f'{t:g}' for t in CELL_TOLERANCE)}), typically near the "
