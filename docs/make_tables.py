@@ -47,8 +47,7 @@ def generated_blocks() -> dict[str, str]:
 
 
 def block_pattern(name: str) -> re.Pattern:
-    return re.compile(rf"(<!-- generated: {re.escape(name)} -->\n)(.*?)(\n<!-- end generated: {re.escape(name)} -->)",
-                      re.S)
+    return re.compile(rf"(<!-- generated: {re.escape(name)} -->\n)(.*?)(<!-- end generated: {re.escape(name)} -->)", re.S)
 
 
 def rewrite(text: str, blocks: dict[str, str]) -> str:
@@ -56,7 +55,7 @@ def rewrite(text: str, blocks: dict[str, str]) -> str:
         pattern = block_pattern(name)
         if not pattern.search(text):
             raise SystemExit(f"docs/model.md has no block '<!-- generated: {name} -->'")
-        text = pattern.sub(lambda match: match.group(1) + table + match.group(3), text)
+        text = pattern.sub(lambda match: match.group(1) + table + "\n" + match.group(3), text)
     return text
 
 
