@@ -61,7 +61,7 @@ def test_the_citation_check_catches_a_broken_citation():
     sections = model_sections(MODEL.read_text(encoding="utf-8"))
     cite = "docs/model" + ".md"                        # spelled apart: this file's own text must pass the check
     broken = [("example.py", f"see {cite} §4.2, §4.9 and {cite} §7.2-§7.8")]
-    assert unresolved(broken, sections) == ["example.py: docs/model.md §4.9", "example.py: docs/model.md §7.8"]
+    assert unresolved(broken, sections) == [f"example.py: {cite} §4.9", f"example.py: {cite} §7.8"]
 
 
 def test_nothing_in_the_project_points_at_a_description_outside_it():
