@@ -7,6 +7,7 @@ contact_regions.png   the vane in its slot with an exaggerated clearance and the
 pressure_tables.png   p_L over a lobe for Level 0 and Level 0.5 (c_S = 0 and 0.2 mm) and Level 1 (§6.1, §7)
 waveforms.png         driving torque, stator moment and contact forces over one revolution, c = 0 and 0.05 mm (§5, §6)
 clearance_study.png   mean powers and efficiency against clearance at 1500 rpm, Level 0.5 (§10)
+startup.png           radial acceleration of the vane during the thesis start-up, against the nominal law (§3.2, §10)
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp  # noqa: E402
+from rotary_vane.mechanics.displacement import displacement  # noqa: E402
 from rotary_vane.mechanics.geometry import law_arguments, pitch_frame  # noqa: E402
 from rotary_vane.mechanics.performance import boundary_rows, revolutions  # noqa: E402
 from rotary_vane.mechanics.pressure_source import leading_pressure_table  # noqa: E402
@@ -255,12 +257,39 @@ def clearance_figure():
         print("c = %.3f mm  P_in %.2f  P_out %.2f  P_fric %.2f  eta %.2f %%  modes %d" % row)
 
 
+def startup_figure():
+    p = CompressorParameters(slot_clearance=5e-5, stator_clearance=5e-5)
+    sim = Simulation(p, cycloidal_ramp(RPM, 0.4), initial_angle=0.0)
+    sim.advance(0.5)
+    h = sim.history
+    time, angle = h["time"], h["rotor_angle"]
+    omega, theta_ddot = h["rotor_speed"], h["rotor_acceleration"]
+    law = law_arguments(p)[:5]
+    derivatives = np.array([displacement(a, *law)[1:3] for a in angle])
+    nominal = derivatives[:, 1] * omega ** 2 + derivatives[:, 0] * theta_ddot
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    top.plot(time, omega * 30 / math.pi, color="black")
+    top.set_ylabel("rotor speed [rpm]")
+    top.set_title("Start-up: cycloidal ramp 0 → 1500 rpm over 0.4 s, c_R = c_S = 0.05 mm")
+    top.grid(alpha=0.3)
+    bottom.plot(time, h["vane_radial_acceleration"], lw=0.5, label="a_r (model)")
+    bottom.plot(time, nominal, lw=1.0, color="tab:orange", label="s''ω² + s'θ̈ (nominal law)")
+    bottom.set_ylim(-1500, 1500)
+    bottom.set_ylabel("radial acceleration [m/s²]")
+    bottom.set_xlabel("time [s]")
+    bottom.legend(fontsize=8, loc="lower left")
+    bottom.grid(alpha=0.3)
+    figure.tight_layout()
+    _save(figure, "startup.png")
+
+
 def main():
     geometry_figure()
     contact_regions_figure()
     pressure_figure()
     waveform_figure()
     clearance_figure()
+    startup_figure()
 
 
 if __name__ == "__main__":
