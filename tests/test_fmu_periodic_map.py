@@ -183,6 +183,7 @@ def test_start_up_coupled_to_the_motor_matches_detailed(built_fmus, tmp_path):
 
 
 RAMP = """
+import math
 import fmu_helpers as H
 out = {}
 def speed(t):       # the thesis start-up: cycloidal 0 -> 1500 rpm in 0.4 s
