@@ -52,11 +52,13 @@ from PIL import Image                                            # noqa: E402
 
 from rotary_vane.examples.cli_types import number_parser, whole_number_parser  # noqa: E402
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
-from rotary_vane.mechanics.contact import slot_bottom_contact, slot_mouth_contact, tip_contact  # noqa: E402
+from rotary_vane.mechanics.contact import slot_contacts, tip_contact  # noqa: E402
 from rotary_vane.mechanics.displacement import displacement  # noqa: E402
 from rotary_vane.mechanics.geometry import closest_pitch_parameter, stator_point  # noqa: E402
-from rotary_vane.mechanics.layout import ANGLE, OUTPUT_INDEX, X, Y  # noqa: E402
-from rotary_vane.mechanics.machine import Machine, machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.kinematics import pose_of  # noqa: E402
+from rotary_vane.mechanics.layout import ANGLE, X, Y  # noqa: E402
+from rotary_vane.mechanics.machine import machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.outputs import OUTPUT_INDEX  # noqa: E402
 from rotary_vane.mechanics.modes import REGION_LABELS  # noqa: E402
 
 MM = 1e3                          # drawings are in mm
@@ -120,7 +122,7 @@ def simulate_frames(params: CompressorParameters, rpm: float, frames: int, revol
 
 
 # drawn geometry ------------------------------------------------------------------------------------------
-def drawn_machine(params: CompressorParameters, exaggeration: float) -> Machine:
+def drawn_machine(params: CompressorParameters, exaggeration: float) -> np.record:
     """The machine as drawn: clearances c_R, c_S multiplied by the exaggeration factor k >= 1.
 
     Built through CompressorParameters, so the drawn slot width w = t + k c_R, mouth radius, envelope offset
@@ -137,17 +139,17 @@ def drawn_machine(params: CompressorParameters, exaggeration: float) -> Machine:
     return machine_from_parameters(drawn)
 
 
-def _law(m: Machine) -> tuple:
+def _law(m: np.record) -> tuple:
     return m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell
 
 
-def reference_centre(m: Machine, theta: float) -> np.ndarray:
+def reference_centre(m: np.record, theta: float) -> np.ndarray:
     """Vane CG G at zero clearance: tip centre on the pitch curve, axis radial: G = (R0 + s(theta) - xi_T) e_r."""
     radius = m.base_radius + displacement(theta, *_law(m))[0] - m.tip_centre
     return radius * np.array([math.cos(theta), math.sin(theta)])
 
 
-def drawn_pose(m: Machine, theta: float, pose: np.ndarray, exaggeration: float) -> np.ndarray:
+def drawn_pose(m: np.record, theta: float, pose: np.ndarray, exaggeration: float) -> np.ndarray:
     """(x, y, phi) of the drawn vane: reference pose + k (simulated pose - reference pose)."""
     reference = reference_centre(m, theta)
     centre = reference + exaggeration * (pose[:2] - reference)
@@ -159,7 +161,7 @@ def _rotate(points: np.ndarray, angle: float) -> np.ndarray:
     return points @ np.array([[c, s], [-s, c]])
 
 
-def vane_outline(m: Machine, pose: np.ndarray, arc_points: int = 25) -> np.ndarray:
+def vane_outline(m: np.record, pose: np.ndarray, arc_points: int = 25) -> np.ndarray:
     """Stadium-ended vane (docs/model.md §2.1) in the global frame: bottom corners B-, J-, tip arc, J+, B+ (closed shape).
 
     Body frame: flat faces eta = +-t/2 for xi_B <= xi <= xi_T, tip arc T + rho (cos psi, sin psi), |psi| <= pi/2.
@@ -171,7 +173,7 @@ def vane_outline(m: Machine, pose: np.ndarray, arc_points: int = 25) -> np.ndarr
     return _rotate(body, pose[2]) + pose[:2]
 
 
-def rotor_outline(m: Machine, theta: float, arc_points: int = 180) -> np.ndarray:
+def rotor_outline(m: np.record, theta: float, arc_points: int = 180) -> np.ndarray:
     """Rotor disc minus its slot (docs/model.md §2.2): rim arc from E+ round to E-, then the slot walls and bottom.
 
     Rotor frame: E+- = (R_m, +-w/2), slot bottom at xi = r_sb; the outline is star-shaped about O.
@@ -183,20 +185,20 @@ def rotor_outline(m: Machine, theta: float, arc_points: int = 180) -> np.ndarray
     return _rotate(body, theta)
 
 
-def slot_outline(m: Machine, theta: float) -> np.ndarray:
+def slot_outline(m: np.record, theta: float) -> np.ndarray:
     """The slot as a rectangle r_sb <= xi <= R_m, |eta| <= w/2 in the rotor frame (docs/model.md §2.2), rotated by theta."""
     corners = np.array([[m.slot_bottom_radius, -m.half_slot_width], [m.mouth_radius, -m.half_slot_width],
                         [m.mouth_radius, m.half_slot_width], [m.slot_bottom_radius, m.half_slot_width]])
     return _rotate(corners, theta)
 
 
-def stator_curve(m: Machine, parameters: np.ndarray) -> np.ndarray:
+def stator_curve(m: np.record, parameters: np.ndarray) -> np.ndarray:
     """Stator bore points S(u) = C(u) + d n(u) (docs/model.md §2.5) at the given curve parameters u."""
     law = _law(m)
     return np.array([stator_point(u, *law, m.base_radius, m.envelope_offset)[:2] for u in parameters])
 
 
-def chamber_polygons(m: Machine, theta: float, tip_centre: np.ndarray, arc_points: int = 60):
+def chamber_polygons(m: np.record, theta: float, tip_centre: np.ndarray, arc_points: int = 60):
     """Leading and trailing chambers of the active lobe as polygons (docs/model.md §1.1), for the vane tip centre T.
 
     Lobe j spans the valleys u_j = 2 pi j/z <= theta < u_j+1. The vane meets the stator at u*, the closest
@@ -228,26 +230,21 @@ class ContactForce:
     force: float                  # normal force magnitude [N]
 
 
-def contact_forces(m: Machine, pose: np.ndarray, row: np.ndarray) -> list[ContactForce]:
+def contact_forces(m: np.record, pose: np.ndarray, row: np.ndarray) -> list[ContactForce]:
     """The active contacts of one output row with their points and normals from the detection functions (docs/model.md §4).
 
     Regions c1/c2 slot mouth, c3/c4 vane bottom corners, c5/c6 tip on stator (one of them at a time).
     """
     gx, gy, phi = pose
-    theta = row[OUTPUT_INDEX["rotor_angle"]]
-    exi_x, exi_y, er_x, er_y = math.cos(phi), math.sin(phi), math.cos(theta), math.sin(theta)
-    tip = tip_contact(gx + m.tip_centre * exi_x, gy + m.tip_centre * exi_y, exi_x, exi_y,
-                      row[OUTPUT_INDEX["closest_parameter_offset"]], m)
-    detected = {1: slot_mouth_contact(1.0, gx, gy, exi_x, exi_y, er_x, er_y, m),
-                2: slot_mouth_contact(-1.0, gx, gy, exi_x, exi_y, er_x, er_y, m),
-                3: slot_bottom_contact(1.0, gx, gy, exi_x, exi_y, er_x, er_y, m),
-                4: slot_bottom_contact(-1.0, gx, gy, exi_x, exi_y, er_x, er_y, m),
-                5: tip, 6: tip}
+    vane = pose_of(gx, gy, phi, row[OUTPUT_INDEX["rotor_angle"]], m)
+    tip = tip_contact(vane, row[OUTPUT_INDEX["closest_parameter_offset"]], m).candidate
+    detected = dict(zip((1, 2, 3, 4, 5, 6), (*slot_contacts(vane, m), tip, tip)))
     contacts = []
-    for region, geometry in detected.items():
+    for region, candidate in detected.items():
         force = row[OUTPUT_INDEX[f"normal_force_{region}"]]
         if force > 0.0:
-            contacts.append(ContactForce(region, np.array(geometry[3:5]), np.array(geometry[1:3]), float(force)))
+            contacts.append(ContactForce(region, np.array([candidate.point_x, candidate.point_y]),
+                                         np.array([candidate.normal_x, candidate.normal_y]), float(force)))
     return contacts
 
 

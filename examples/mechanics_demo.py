@@ -85,7 +85,6 @@ class Run:
     window: dict[str, np.ndarray]          # history columns over the last full revolution
     wall_time: float
     steps: int
-    gas_figures: dict | None = None        # real-gas model: discharge temperature, efficiencies (GasReference)
 
 
 def make_parameters(clearance_mm: float, lobes: int, integrator: str) -> CompressorParameters:
@@ -104,8 +103,7 @@ def run_one(clearance_mm: float, params: CompressorParameters, rpm: float, revol
     t = history["time"]
     rows = (t >= summary.start_time) & (t <= summary.end_time)
     window = {name: history[name][rows] for name in history.names}
-    figures = None if simulation.gas_reference is None else simulation.gas_reference.figures(summary)
-    return Run(clearance_mm, params, summary, window, wall_time, len(history), figures)
+    return Run(clearance_mm, params, summary, window, wall_time, len(history))
 
 
 def angle_in_revolution(run: Run) -> np.ndarray:
@@ -156,24 +154,24 @@ GAS_COLUMNS = (  # (header, width, format)
 )
 
 
-def gas_row(run: Run, figures: dict | None) -> list:
+def gas_row(run: Run) -> list:
     """Cells of one run in GAS_COLUMNS order; the chamber figures only for the real-gas model."""
     s = run.summary
-    gas = [math.nan] * 6 if figures is None else [
-        s.indicated_power, 1e3 * s.discharge_mass_flow, figures["discharge_temperature"],
-        100.0 * figures["volumetric_efficiency"], 100.0 * figures["isentropic_efficiency"], s.gas_mass_residual]
+    gas = [math.nan] * 6 if run.params.pressure_model != "real_gas" else [
+        s.indicated_power, 1e3 * s.discharge_mass_flow, s.discharge_temperature,
+        100.0 * s.volumetric_efficiency, 100.0 * s.isentropic_efficiency, s.gas_mass_residual]
     return [run.clearance_mm, run.params.pressure_model, s.input_power, s.output_power,
             100.0 * s.mechanical_efficiency, *gas, s.gas_energy_residual]
 
 
-def print_gas_comparison(pairs: list[tuple[Run, Run, dict]]) -> None:
+def print_gas_comparison(pairs: list[tuple[Run, Run]]) -> None:
     """Level 0.5 (ideal-gas table) next to Level 1 (real-gas chambers) per clearance (issue 3)."""
     header = "  ".join(f"{name:>{width}}" for name, width, _ in GAS_COLUMNS)
     print(header)
     print("-" * len(header))
-    for table_run, gas_run, figures in pairs:
-        for run, run_figures in ((table_run, None), (gas_run, figures)):
-            cells = gas_row(run, run_figures)
+    for table_run, gas_run in pairs:
+        for run in (table_run, gas_run):
+            cells = gas_row(run)
             print("  ".join("n/a".rjust(width) if isinstance(value, float) and math.isnan(value)
                             else f"{fmt.format(value):>{width}}" for (_, width, fmt), value in zip(GAS_COLUMNS, cells)))
     print("P_ind: -sum p dV/dt of the two chambers; m_dot: discharge mass flow; T_dis: mixed discharge temperature; "
@@ -374,9 +372,9 @@ def main(argv=None) -> int:
         except IntegrationError as error:
             print(f"error: c = {clearance:g} mm, real gas: {error.reason} at t = {error.time:.6g} s", file=sys.stderr)
             return 1
-        pairs.append((table_run, gas_run, gas_run.gas_figures))
+        pairs.append((table_run, gas_run))
     print_gas_comparison(pairs)
-    plot_pv_diagram([gas_run for _, gas_run, _ in pairs], args.out / "pv_diagram.png")
+    plot_pv_diagram([gas_run for _, gas_run in pairs], args.out / "pv_diagram.png")
     plot_kinematics(runs, args.rpm, args.out / "kinematics.png")
     plot_contact_forces(runs, args.rpm, args.out / "contact_forces.png")
     plot_torques(runs, args.rpm, args.out / "torques.png")

@@ -36,7 +36,7 @@ import numpy as np                         # noqa: E402
 
 from rotary_vane.mechanics import CompressorParameters  # noqa: E402
 from rotary_vane.mechanics.geometry import closest_pitch_frame, stator_regularity  # noqa: E402
-from rotary_vane.mechanics.machine import Machine, machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.machine import machine_from_parameters  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary  # noqa: E402
 from rotary_vane.examples.animate import Frames, reference_centre, simulate_frames, stator_curve  # noqa: E402
 from rotary_vane.examples.mechanics_demo import run_one  # noqa: E402
@@ -96,12 +96,12 @@ class Trajectory:
     slot_penetration: np.ndarray  # max of delta_1..delta_4 (slot regions) [m]
 
 
-def law_of(m: Machine) -> tuple:
+def law_of(m: np.record) -> tuple:
     """The pitch-curve arguments (law, h, z, beta0, beta1, R0) of mechanics.geometry."""
     return m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell, m.base_radius
 
 
-def trajectory(m: Machine, frames: Frames) -> Trajectory:
+def trajectory(m: np.record, frames: Frames) -> Trajectory:
     """Rotor-frame offsets of G from the nominal pose of docs/model.md §3.3: G_nominal = (R0 + s(theta) + c_S - xi_T) e_r;
     the tip circle's point nearest the stator, T + rho n(u*), with u* the closest pitch-curve point (docs/model.md §2.6)."""
     theta = frames.column("rotor_angle")
@@ -166,7 +166,7 @@ def title_of(run: LobeRun) -> str:
             f"(default geometry)")
 
 
-def plot_vane_centre(run: LobeRun, m: Machine, path_data: Trajectory, path: Path) -> None:
+def plot_vane_centre(run: LobeRun, m: np.record, path_data: Trajectory, path: Path) -> None:
     fig = plt.figure(figsize=(12, 10))
     grid = fig.add_gridspec(2, 2, height_ratios=(1.25, 1.0))
     fixed, rotor, offsets = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, :])
@@ -213,7 +213,7 @@ def plot_vane_centre(run: LobeRun, m: Machine, path_data: Trajectory, path: Path
     plt.close(fig)
 
 
-def tip_arc(m: Machine, tip: np.ndarray, vane_angle: float, points: int = 91) -> np.ndarray:
+def tip_arc(m: np.record, tip: np.ndarray, vane_angle: float, points: int = 91) -> np.ndarray:
     """The vane's tip semicircle T + rho e(phi3 + psi), |psi| <= pi/2 (docs/model.md §2.1), in the fixed frame."""
     psi = vane_angle + np.linspace(-0.5 * math.pi, 0.5 * math.pi, points)
     return tip + m.tip_radius * np.column_stack([np.cos(psi), np.sin(psi)])
@@ -235,7 +235,7 @@ def from_valley_frame(points: np.ndarray, valley: float, radius: float) -> np.nd
     return rotate(points + np.array([0.0, radius]), valley - 0.5 * math.pi)
 
 
-def plot_tip_and_stator(run: LobeRun, m: Machine, path_data: Trajectory, path: Path) -> None:
+def plot_tip_and_stator(run: LobeRun, m: np.record, path_data: Trajectory, path: Path) -> None:
     fig = plt.figure(figsize=(14, 9.5))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.3))
     full, zoom, gap = fig.add_subplot(grid[:, 0]), fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])

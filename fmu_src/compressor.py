@@ -1,8 +1,10 @@
 """The compressor as an FMI 2.0 co-simulation slave: shaft speed in [rpm], torque and powers out.
 
 A thin map of FMI calls onto `mechanics.Simulation` (one per instance): parameters generated from the parameter
-declarations, the speed input held or ramped over each communication step, per-revolution figures from a
-`RevolutionMonitor`, the whole simulation state saved and restored.
+declarations, outputs from the output declarations (mechanics.outputs: end-of-step values read from the last
+output row, per-revolution figures from the last completed revolution the time loop summarised), the speed
+input held or ramped over each communication step, the whole simulation state saved and restored. Outputs are
+read when the importer asks for them: a step does nothing in Python beyond one call of the time loop.
 """
 from __future__ import annotations
 
@@ -13,64 +15,28 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
 from pythonfmu.variables import Boolean
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
-from rotary_vane.mechanics.layout import OUTPUT_INDEX, WORK_IN
-from rotary_vane.mechanics.performance import RevolutionMonitor
+from rotary_vane.mechanics.layout import WORK_IN
+from rotary_vane.mechanics.modes import MODE_COUNT
+from rotary_vane.mechanics.outputs import OUTPUT_INDEX, REVOLUTION, fmu_outputs
 
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
 from .slave import GuardedSlave
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
-# output name -> (unit, description); filled from the simulation after every step
-END_OF_STEP = {
-    "shaft_torque": ("N.m", "driving torque on the rotor T_d = -lambda6 at the end of the step"),
-    "stator_reaction_moment": ("N.m", "stator reaction moment lambda3 (contact + gas) at the end of the step"),
-    **{f"contact_force_{k}": ("N", f"normal force in contact region c{k} at the end of the step")
-       for k in range(1, 7)},
-    "vane_displacement": ("m", "vane radial displacement s_r (docs/model.md §3.4) at the end of the step"),
-    "vane_velocity": ("m/s", "vane radial velocity v_r at the end of the step"),
-    "vane_acceleration": ("m/s2", "vane radial acceleration a_r at the end of the step"),
-    "vane_tilt": ("rad", "vane tilt phi3 - theta at the end of the step"),
-    "vane_tangential_velocity": ("m/s", "vane tangential velocity v_theta (docs/model.md §3.4) at the end of the step"),
-    "vane_tangential_acceleration": ("m/s2", "vane tangential acceleration a_theta at the end of the step"),
-    "leading_chamber_pressure": ("Pa", "leading-chamber pressure at the end of the step"),
-    "trailing_chamber_pressure": ("Pa", "trailing-chamber pressure at the end of the step"),
-}
-SOURCE_COLUMN = {
-    "shaft_torque": "driving_torque", "vane_displacement": "vane_displacement",
-    "vane_velocity": "vane_radial_velocity", "vane_acceleration": "vane_radial_acceleration",
-    "vane_tilt": "vane_tilt", "vane_tangential_velocity": "vane_tangential_velocity",
-    "vane_tangential_acceleration": "vane_tangential_acceleration", "leading_chamber_pressure": "leading_pressure",
-    "trailing_chamber_pressure": "trailing_pressure",
-    **{f"contact_force_{k}": f"normal_force_{k}" for k in range(1, 7)},
-}
-PER_REVOLUTION = {
-    "input_power": ("W", "mean shaft input power over the last completed revolution (0 before the first)"),
-    "output_power": ("W", "mean power delivered to the gas over the last completed revolution"),
-    "friction_power": ("W", "mean friction power over the last completed revolution"),
-    "damping_power": ("W", "mean contact-damping power over the last completed revolution"),
-    "mechanical_efficiency": ("1", "output power / input power over the last completed revolution"),
-    "max_contact_force": ("N", "largest normal force of any region over the last completed revolution"),
-}
-# per-revolution figures of the real-gas chambers (pressure_model real_gas; 0 with the pressure tables)
-PER_REVOLUTION_GAS = {
-    "suction_mass_flow": ("kg/s", "mean net mass flow drawn from the suction side over the last completed "
-                                  "revolution (real_gas)"),
-    "discharge_mass_flow": ("kg/s", "mean mass flow through the discharge valve over the last completed "
-                                    "revolution (real_gas)"),
-    "discharge_temperature": ("K", "mixed temperature of the gas discharged over the last completed revolution, "
-                                   "at discharge pressure (real_gas)"),
-    "indicated_power": ("W", "mean p-V power on the chambers over the last completed revolution (real_gas)"),
-    "volumetric_efficiency": ("1", "delivered mass / (suction density x lobe volume x lobes) per revolution "
-                                   "(real_gas)"),
-    "isentropic_efficiency": ("1", "discharge mass flow x (h_2s - h_1) / input power over the last completed "
-                                   "revolution (real_gas)"),
-}
+OUTPUTS = fmu_outputs()
 MAX_SHAFT_SPEED = 30000.0             # rpm: far above any vane compressor; beyond it the input is refused
 # FMU-only parameters (the physics parameters come from mechanics.parameters)
 RUN_PARAMETERS = {
     "pressure_table_speed": ("rpm", 1500.0, 1.0, 1e5,
                              "operating speed at which the Level 0.5 pressure table is built"),
     "initial_rotor_angle": ("rad", 0.0, -1e3, 1e3, "rotor angle theta at the start time"),
+}
+# outputs of the communication step itself
+STEP_RESULTS = {
+    "shaft_torque_mean": ("N.m", "shaft work over the last step / angle turned in it (the instantaneous torque if "
+                                 "the rotor stood still)"),
+    "shaft_work": ("J", "cumulative shaft work since the start"),
+    "shaft_angle": ("rad", "cumulative rotor angle turned since the start"),
 }
 
 
@@ -87,11 +53,12 @@ class CompressorSlave(GuardedSlave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.simulation: Simulation | None = None
-        self.monitor: RevolutionMonitor | None = None
         self.map_run: PeriodicMapRun | None = None
+        self.map_values: dict[str, float] = {}
         self.fidelity = "detailed"
         self.shaft_speed = 1500.0
         self.interpolate_speed = True
+        self.step_results = dict.fromkeys(STEP_RESULTS, 0.0)
         self.register_variable(RealVariable(
             "shaft_speed", "rpm", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
             minimum=0.0, maximum=MAX_SHAFT_SPEED, description="rotor speed; held or ramped over each communication step"))
@@ -110,23 +77,48 @@ class CompressorSlave(GuardedSlave):
             choices=FIDELITIES, description="detailed: every vane impact resolved; periodic_map: the detailed "
                                              "model's periodic steady state tabulated over 10-120 % of "
                                              "pressure_table_speed at initialization, interpolated at run time")))
-        self.outputs = dict.fromkeys([*END_OF_STEP, "shaft_torque_mean", "shaft_work", "shaft_angle",
-                                      *PER_REVOLUTION, *PER_REVOLUTION_GAS], 0.0)
-        self.contact_mode = 0
-        self.contact_mode_count = 0
-        for name, (unit, text) in {**END_OF_STEP, **PER_REVOLUTION, **PER_REVOLUTION_GAS}.items():
-            self._register_output(name, unit, text)
-        self._register_output("shaft_torque_mean", "N.m", "shaft work over the last step / angle turned in it "
-                                                          "(the instantaneous torque if the rotor stood still)")
-        self._register_output("shaft_work", "J", "cumulative shaft work since the start")
-        self._register_output("shaft_angle", "rad", "cumulative rotor angle turned since the start")
-        self.register_variable(integer_output("contact_mode", "bit mask of the regions in contact "
-                                                              "(bit k-1 for region ck) at the end of the step"))
+        for declared in OUTPUTS:
+            getter = (self._figure_getter(declared.name, declared.source) if declared.per == REVOLUTION
+                      else self._column_getter(declared.name, OUTPUT_INDEX[declared.source]))
+            self.register_variable(output(declared.name, declared.unit, declared.description, getter))
+        for name, (unit, text) in STEP_RESULTS.items():
+            self.register_variable(output(name, unit, text, lambda name=name: self.step_results[name]))
+        self.register_variable(integer_output("contact_mode", "bit mask of the regions in contact (bit k-1 for "
+                                                              "region ck) at the end of the step",
+                                              getter=self._contact_mode))
         self.register_variable(integer_output("contact_mode_count", "distinct contact modes so far (cumulative "
-                                                                    "dwell >= mode_dwell_time)"))
+                                                                    "dwell >= mode_dwell_time)",
+                                              getter=self._contact_mode_count))
 
-    def _register_output(self, name, unit, text):
-        self.register_variable(output(name, unit, text, getter=lambda: self.outputs[name]))
+    # outputs, read on demand ----------------------------------------------------------------------------------
+    def _column_getter(self, name, column):
+        def value():
+            if self.map_run is not None:
+                return self.map_values.get(name, 0.0)
+            return float(self.simulation.last_output[column]) if self.simulation is not None else 0.0
+        return value
+
+    def _figure_getter(self, name, figure):
+        """A per-revolution figure; 0 before the first completed revolution and for figures the pressure model
+        does not define (the real-gas figures under the pressure tables)."""
+        def value():
+            if self.map_run is not None:
+                return self.map_values.get(name, 0.0)
+            summary = self.simulation.last_revolution if self.simulation is not None else None
+            number = getattr(summary, figure) if summary is not None else 0.0
+            return float(number) if math.isfinite(number) else 0.0
+        return value
+
+    def _contact_mode(self):
+        if self.map_run is not None:
+            return self.map_run.contact_mode
+        return int(self.simulation.last_output[OUTPUT_INDEX["contact_mode"]]) if self.simulation is not None else 0
+
+    def _contact_mode_count(self):
+        if self.simulation is None:
+            return 0
+        dwell = self.simulation.run_dwell.reshape(-1, MODE_COUNT).sum(axis=0)
+        return int((dwell >= self.mode_dwell_time).sum())
 
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
@@ -142,10 +134,8 @@ class CompressorSlave(GuardedSlave):
             self.map_run = PeriodicMapRun(params, self.pressure_table_speed, self.shaft_speed,
                                           self.initial_rotor_angle)
             return
-        self.monitor = RevolutionMonitor(params)
         self.simulation = Simulation(params, constant_speed(self.shaft_speed), initial_angle=self.initial_rotor_angle,
-                                     keep_history=False, table_speed_rpm=self.pressure_table_speed,
-                                     observers=[self.monitor])
+                                     keep_history=False, table_speed_rpm=self.pressure_table_speed)
 
     def advance(self, time, step_size):
         if self.map_run is not None:
@@ -166,31 +156,13 @@ class CompressorSlave(GuardedSlave):
         except IntegrationError as error:
             self.failure = f"the simulation stopped: {error}"
             return self.refuse(self.failure)
-        self._update_outputs(simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before)
+        work, angle = simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before
+        results = self.step_results
+        results["shaft_torque_mean"] = (work / angle if angle > 0.0 else
+                                        float(simulation.last_output[OUTPUT_INDEX["driving_torque"]]))
+        results["shaft_work"] = float(simulation.state[WORK_IN])
+        results["shaft_angle"] = simulation.rotor_angle - self.initial_rotor_angle
         return True
-
-    def _update_outputs(self, work, angle):
-        row = self.simulation.last_output
-        values = self.outputs
-        for name, column in SOURCE_COLUMN.items():
-            values[name] = float(row[OUTPUT_INDEX[column]])
-        values["stator_reaction_moment"] = float(row[OUTPUT_INDEX["stator_contact_moment"]]
-                                                 + row[OUTPUT_INDEX["stator_gas_moment"]])
-        values["shaft_torque_mean"] = work / angle if angle > 0.0 else values["shaft_torque"]
-        values["shaft_work"] = float(self.simulation.state[WORK_IN])
-        values["shaft_angle"] = self.simulation.rotor_angle - self.initial_rotor_angle
-        last = self.monitor.last
-        if last is not None:
-            for name in ("input_power", "output_power", "friction_power", "damping_power",
-                         "mechanical_efficiency"):
-                values[name] = float(getattr(last, name))
-            values["max_contact_force"] = float(max(last.max_normal_force))
-            if self.simulation.gas_reference is not None:
-                figures = self.simulation.gas_reference.figures(last)
-                for name in PER_REVOLUTION_GAS:
-                    values[name] = float(figures[name])
-        self.contact_mode = int(row[OUTPUT_INDEX["contact_mode"]])
-        self.contact_mode_count = len(self.monitor.distinct_modes)
 
     def _advance_map(self, time, step_size):
         """One step of the periodic_map fidelity (fmu_src.periodic_map_mode)."""
@@ -202,28 +174,27 @@ class CompressorSlave(GuardedSlave):
             return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
                                f"[0, {MAX_SHAFT_SPEED:g}] rpm")
         work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
-        self.outputs.update(run.outputs())
-        self.outputs["shaft_torque_mean"] = work / angle if angle > 0.0 else self.outputs["shaft_torque"]
-        self.outputs["shaft_work"] = run.work
-        self.outputs["shaft_angle"] = run.angle - self.initial_rotor_angle
-        self.contact_mode = run.contact_mode
+        self.map_values = run.outputs()
+        results = self.step_results
+        results["shaft_torque_mean"] = work / angle if angle > 0.0 else self.map_values["shaft_torque"]
+        results["shaft_work"] = run.work
+        results["shaft_angle"] = run.angle - self.initial_rotor_angle
         return True
 
     # state --------------------------------------------------------------------------------------------------
     def snapshot(self):
         parameters = {name: getattr(self, name) for name in [*(n for n, _, _ in declarations()), *RUN_PARAMETERS,
                                                               "interpolate_speed", "fidelity"]}
-        return dict(simulation=self.simulation.get_state() if self.simulation else None, monitor=self.monitor,
-                    map_run=self.map_run.get_state() if self.map_run else None,
-                    outputs=self.outputs, contact_mode=self.contact_mode, parameters=parameters,
-                    start_time=self.start_time, contact_mode_count=self.contact_mode_count, failure=self.failure,
-                    shaft_speed=self.shaft_speed)
+        return dict(simulation=self.simulation.get_state() if self.simulation else None,
+                    map_run=self.map_run.get_state() if self.map_run else None, map_values=self.map_values,
+                    step_results=self.step_results, parameters=parameters, start_time=self.start_time,
+                    failure=self.failure, shaft_speed=self.shaft_speed)
 
     def restore(self, state):
         """Restore a state; an instance that is not initialized yet is built from the state's parameters."""
         for name, value in state["parameters"].items():
             setattr(self, name, value)
-        for name in ("outputs", "contact_mode", "contact_mode_count", "failure", "shaft_speed", "start_time"):
+        for name in ("map_values", "step_results", "failure", "shaft_speed", "start_time"):
             setattr(self, name, state[name])
         if state.get("map_run") is not None:
             if self.map_run is None:
@@ -231,10 +202,8 @@ class CompressorSlave(GuardedSlave):
             self.map_run.set_state(state["map_run"])
             return
         if state["simulation"] is None:             # a state from before initialization
-            self.simulation = self.monitor = self.map_run = None
+            self.simulation = self.map_run = None
             return
         if self.simulation is None:
             self.initialize()
         self.simulation.set_state(state["simulation"])
-        self.monitor = state["monitor"]
-        self.simulation.observers = [self.monitor]

@@ -13,23 +13,16 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from rotary_vane.mechanics.periodic_map import (TORQUE, MapSettings, build_map, cache_key,
-                                                default_cache_dir)
+from rotary_vane.mechanics.outputs import STEP, fmu_outputs
+from rotary_vane.mechanics.periodic_map import MapSettings, build_map, cache_key, default_cache_dir
+from rotary_vane.mechanics.regions import REGION_COUNT
 from rotary_vane.mechanics.speed import RPM
 
 FIDELITIES = ("detailed", "periodic_map")
 SHIPPED_TABLES = Path(__file__).resolve().parent.parent / "periodic_maps"    # inside an FMU built with --map
-# FMU output -> table channel
-OUTPUT_CHANNEL = {
-    "shaft_torque": TORQUE, "stator_reaction_moment": "stator_reaction_moment",
-    "leading_chamber_pressure": "leading_pressure", "trailing_chamber_pressure": "trailing_pressure",
-    **{f"contact_force_{k}": f"normal_force_{k}" for k in range(1, 7)},
-    "vane_displacement": "vane_displacement", "vane_velocity": "vane_radial_velocity",
-    "vane_acceleration": "vane_radial_acceleration", "vane_tilt": "vane_tilt",
-    "vane_tangential_velocity": "vane_tangential_velocity",
-    "vane_tangential_acceleration": "vane_tangential_acceleration",
-}
-CONTACT_CHANNELS = tuple(f"normal_force_{k}" for k in range(1, 7))
+# FMU output -> table channel (the output column behind it, mechanics.outputs)
+OUTPUT_CHANNEL = {output.name: output.source for output in fmu_outputs() if output.per == STEP}
+CONTACT_CHANNELS = tuple(f"normal_force_{k}" for k in range(1, REGION_COUNT + 1))
 
 
 def map_table_for(params, operating_rpm: float):

@@ -96,10 +96,10 @@ def output(name, unit, description, getter):
                         description=description, getter=getter)
 
 
-def integer_output(name, description):
-    """A discrete Integer output computed in do_step."""
+def integer_output(name, description, getter=None):
+    """A discrete Integer output computed in do_step (read through `getter` if given)."""
     return IntegerVariable(name, causality=Fmi2Causality.output, variability=Fmi2Variability.discrete,
-                           description=description)
+                           description=description, getter=getter)
 
 
 def parameter(name, unit, description, minimum=None, maximum=None):

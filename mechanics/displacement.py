@@ -6,7 +6,7 @@ stroke h at mid-lobe. Derivatives are with respect to the rotor angle theta.
 import math
 
 import numpy as np
-from numba import njit
+from rotary_vane.thermo.kernel import kernel
 
 HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = 0, 1, 2, 3
 LAW_CODES = {"harmonic": HARMONIC, "cycloidal": CYCLOIDAL, "harmonic_dwell": HARMONIC_DWELL,
@@ -15,7 +15,7 @@ LAW_CODES = {"harmonic": HARMONIC, "cycloidal": CYCLOIDAL, "harmonic_dwell": HAR
 TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True)
+@kernel
 def _harmonic(theta, stroke, lobes):
     """s = (h/2)(1 - cos z theta) and derivatives (docs/model.md §2.3 option 1)."""
     c = math.cos(lobes * theta)
@@ -24,7 +24,7 @@ def _harmonic(theta, stroke, lobes):
     return (half * (1.0 - c), half * lobes * s, half * lobes * lobes * c, -half * lobes ** 3 * s)
 
 
-@njit(cache=True)
+@kernel
 def _rise_return(theta, stroke, lobes, law):
     """Symmetric rise over zeta in [0, pi] and mirrored return, x = zeta/pi (docs/model.md §2.3 options 2 and 4)."""
     zeta = (lobes * theta) % TWO_PI
@@ -45,7 +45,7 @@ def _rise_return(theta, stroke, lobes, law):
     return stroke * f0, stroke * f1 * dx, stroke * f2 * dx * dx, stroke * f3 * dx ** 3
 
 
-@njit(cache=True)
+@kernel
 def _harmonic_with_dwells(theta, stroke, lobes, bottom_dwell, top_dwell):
     """Bottom dwell beta0 centred on the valley, cosine rise, top dwell beta1, cosine return (docs/model.md §2.3 option 3).
 
@@ -72,7 +72,7 @@ def _harmonic_with_dwells(theta, stroke, lobes, bottom_dwell, top_dwell):
             -sign * half * k ** 3 * math.sin(a))
 
 
-@njit(cache=True)
+@kernel
 def displacement_given_trig(theta, cos_theta, sin_theta, law, stroke, lobes, bottom_dwell, top_dwell):
     """`displacement` when cos(theta) and sin(theta) are known: for the harmonic law cos(z theta) and sin(z theta)
     follow by complex powers (de Moivre), saving a trigonometric evaluation in the closest-point loop."""
@@ -86,7 +86,7 @@ def displacement_given_trig(theta, cos_theta, sin_theta, law, stroke, lobes, bot
     return (half * (1.0 - c), half * lobes * s, half * lobes * lobes * c, -half * lobes ** 3 * s)
 
 
-@njit(cache=True)
+@kernel
 def displacement(theta, law, stroke, lobes, bottom_dwell, top_dwell):
     """(s, ds/dtheta, d2s/dtheta2, d3s/dtheta3) of the chosen law at rotor angle theta."""
     if law == HARMONIC:
@@ -96,7 +96,7 @@ def displacement(theta, law, stroke, lobes, bottom_dwell, top_dwell):
     return _rise_return(theta, stroke, lobes, law)
 
 
-@njit(cache=True)
+@kernel(allocates=True)
 def displacement_on_grid(angles, law, stroke, lobes, bottom_dwell, top_dwell):
     """s(theta) at every angle of an array."""
     values = np.empty(angles.size)

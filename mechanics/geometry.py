@@ -6,14 +6,15 @@ envelope of the tip circle, the parallel curve S(u) = C(u) + d n(u) with d = rho
 import math
 
 import numpy as np
-from numba import njit
+
+from rotary_vane.thermo.kernel import kernel
 
 from .displacement import LAW_CODES, displacement, displacement_given_trig
 
 TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True)
+@kernel
 def pitch_curve(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     """C(u), C'(u), C''(u) as six floats (docs/model.md §2.4).
 
@@ -30,7 +31,7 @@ def pitch_curve(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     return (r * c, r * si, d1r, d1t, ar * c - at * si, ar * si + at * c)
 
 
-@njit(cache=True)
+@kernel
 def pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     """Point C, unit outward normal n, speed N = |C'| and signed curvature kappa_C at u (docs/model.md §2.4).
 
@@ -47,7 +48,7 @@ def pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     return r * c, r * si, nr * c - nt * si, nr * si + nt * c, speed, curvature
 
 
-@njit(cache=True)
+@kernel
 def stator_point(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, offset):
     """S(u) = C + d n, its derivative S' = N (1 + d kappa_C) tau and curvature kappa_S (docs/model.md §2.5)."""
     cx, cy, nx, ny, speed, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
@@ -57,7 +58,7 @@ def stator_point(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, of
             curvature / (1.0 + offset * curvature))
 
 
-@njit(cache=True)
+@kernel
 def _closest_point_residual(u, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     """f(u) = (T - C(u)).C'(u) and f'(u) = -|C'|^2 + (T - C).C'' (docs/model.md §2.6)."""
     cx, cy, d1x, d1y, d2x, d2y = pitch_curve(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
@@ -66,7 +67,7 @@ def _closest_point_residual(u, tx, ty, law, stroke, lobes, bottom_dwell, top_dwe
     return gx * d1x + gy * d1y, -(d1x * d1x + d1y * d1y) + gx * d2x + gy * d2y
 
 
-@njit(cache=True)
+@kernel
 def _brent_root(a, b, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     """Brent-Dekker root of f on a sign-changing bracket [a, b] (safeguard of docs/model.md §2.6)."""
     fa = _closest_point_residual(a, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)[0]
@@ -115,7 +116,7 @@ def _brent_root(a, b, tx, ty, law, stroke, lobes, bottom_dwell, top_dwell, base_
     return b
 
 
-@njit(cache=True)
+@kernel
 def _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     """Newton on f(u) = (T - C).C' = 0 from u_start, steps limited to 0.05 rad, stop at |du| < 1e-13 (docs/model.md §2.6).
 
@@ -151,7 +152,7 @@ def _newton_closest(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell
     return False, u, 20, r, s1, s2, c, si
 
 
-@njit(cache=True)
+@kernel
 def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
     """Parameter u* of the point of C closest to T, and the Newton iterations used (docs/model.md §2.6).
 
@@ -171,9 +172,10 @@ def closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, t
     return u, -1
 
 
-@njit(cache=True)
+@kernel
 def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius):
-    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, kappa_C), for the time loop (docs/model.md §2.6).
+    """u* and the pitch frame there: (u*, C_x, C_y, n_x, n_y, N = |C'|, kappa_C), for the time loop
+    (docs/model.md §2.6).
 
     The frame is built from the values of the last Newton iterate, so no extra trigonometric evaluation is needed.
     """
@@ -181,12 +183,13 @@ def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_d
                                                         top_dwell, base_radius)
     if not converged:
         u, _ = closest_pitch_parameter(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
-        cx, cy, nx, ny, _, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
-        return u, cx, cy, nx, ny, curvature
+        cx, cy, nx, ny, speed, curvature = pitch_frame(u, law, stroke, lobes, bottom_dwell, top_dwell, base_radius)
+        return u, cx, cy, nx, ny, speed, curvature
     speed = math.sqrt(r * r + s1 * s1)
     nr = r / speed
     nt = -s1 / speed
-    return (u, r * c, r * si, nr * c - nt * si, nr * si + nt * c, (r * r + 2.0 * s1 * s1 - r * s2) / speed ** 3)
+    return (u, r * c, r * si, nr * c - nt * si, nr * si + nt * c, speed,
+            (r * r + 2.0 * s1 * s1 - r * s2) / speed ** 3)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -198,7 +201,7 @@ def law_arguments(params):
             params.top_dwell, params.base_radius)
 
 
-@njit(cache=True)
+@kernel(allocates=True)
 def _regularity_on_grid(samples, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, offset):
     lowest = np.inf
     where = 0.0
@@ -228,7 +231,7 @@ def check_stator_regularity(params) -> None:
             f"(reduce stroke or lobes, or the vane thickness)")
 
 
-@njit(cache=True)
+@kernel
 def _lobe_integral(nodes, weights, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, offset, rotor_radius):
     total = 0.0
     for i in range(nodes.size):

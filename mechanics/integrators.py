@@ -1,23 +1,36 @@
-"""The time loop: adaptive Dormand-Prince 5(4) and the thesis's ABM4 PECE with RK4 start (docs/model.md §8.2).
+"""The time loop: one step loop for the adaptive Dormand-Prince 5(4) pair and the thesis's ABM4 PECE with RK4 start
+(docs/model.md §8.2).
 
-Each kernel is entered once per advance and runs until the end time, a full history buffer or a failure. Both
-share the step bookkeeping: events (valley crossing, end of the speed ramp, the end time) clip the step to land on
-them; a step is rejected when its error is too large, when a contact opened deeper than max_onset_penetration,
-or when the state is invalid; the memory (warm start, impact velocities, mode, lobe) changes only after an
-accepted step, whose output row is recorded.
+`advance` is entered once per advance and runs until the end time, a full output buffer or a failure. It owns
+what both methods share, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
+to land on them; a step is rejected when its error is too large, when a contact opened deeper than
+max_onset_penetration, or when the state is invalid; after an accepted step the memory (warm start, impact
+velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.windows) and,
+at a valley, the lobe record written and the chambers switched. Each method supplies its attempt and its step-size
+rule: `dopri5_attempt` from the tableau below (as scipy's RungeKutta classes do), `abm4_attempt` as Adams-Bashforth
+predictor and Adams-Moulton corrector with Runge-Kutta (RK4) steps to start and to land on events.
+
+Under real gas the chamber states (thermo.chamber_model) are part of the state vector and every stage evaluates
+them with the vane (mechanics.dynamics.evaluate).
 """
 import math
 
 import numpy as np
-from numba import njit
 
-from .dynamics import cross_valley, evaluate
-from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_STATE_INVALID, LEADING_DENSITY, LEADING_TEMPERATURE, MASS_DISCHARGE,
-                     MASS_SUCTION, MEM_CLOSEST_OFFSET, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE,
-                     O_CLOSEST_OFFSET, O_CONTACT_ANGLE, O_MODE, O_PENETRATION, O_PENETRATION_RATE, OUTPUT_SIZE,
-                     REACHED_END, RECORD_FULL, REGIONS, STEP_TOO_SMALL, TIP_MEMORY_SLOT, TRAILING_DENSITY,
-                     TRAILING_TEMPERATURE, VX, VY, X, Y)
+from rotary_vane.thermo.kernel import copy_values, kernel
+from rotary_vane.thermo.chamber_model import gas_tolerance, switch_chambers
+from rotary_vane.thermo.property_table import table_from_arrays
+
+from .chamber_geometry import SectorTable
+from .dynamics import KernelContext, chamber_inputs_at, evaluate
+from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
+                     MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
+                     RECORD_FULL, STEP_TOO_SMALL, VX, VY, X, Y)
+from .machine import ABM4, REAL_GAS_MODEL
+from .outputs import O
+from .regions import REGION_BODY, REGION_COUNT, REGION_MEMORY_SLOT, STATOR, TIP_REGIONS
 from .speed import ramp_end_time, rotor_motion, time_of_angle
+from .windows import accumulate, close_window
 
 # counters shared with Python
 ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS = range(6)
@@ -27,13 +40,38 @@ CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = ra
 CONTROL_SIZE = 4
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
-
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
 
+# Dormand-Prince 5(4) (Hairer, Norsett, Wanner, Solving ODEs I, Table 5.2): nodes C, coefficients A (the last row
+# is the 5th-order solution B: first same as last), error weights E = B - B_hat.
+DOPRI5_C = np.array([0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0])
+DOPRI5_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
+    [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
+    [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0]])
+DOPRI5_E = np.array([71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
+                     -1.0 / 40.0])
+# classical RK4 (thesis Table 4.1), the start and event steps of ABM4
+RK4_C = np.array([0.0, 0.5, 0.5, 1.0])
+RK4_A = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 1.0]])
+RK4_B = np.array([1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0])
 
-@njit(cache=True)
-def _tolerance(i, value, m):
-    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (and of the Level 1 gas states)."""
+# workspace rows (each as long as the state vector): the stages k_1 .. k_7 of DOPRI5 (RK4 uses the first four; row
+# 0 is f at the current point), then the stage point, the new state, the ABM4 predictor and its derivative
+STAGES = 7
+W_STAGE, W_Y_NEW, W_Y_PREDICTED, W_F_PREDICTED = range(STAGES, STAGES + 4)
+WORKSPACE_ROWS = STAGES + 4
+
+
+@kernel
+def _tolerance(i, value, m, c):
+    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (chamber states: thermo's)."""
+    if i >= GAS_BLOCK:
+        return gas_tolerance(i - GAS_BLOCK, value, c, m.relative_tolerance)
     if i == X or i == Y:
         atol = m.atol_position
     elif i == ANGLE:
@@ -42,63 +80,20 @@ def _tolerance(i, value, m):
         atol = m.atol_velocity
     elif i == ANGULAR_VELOCITY:
         atol = m.atol_angular_velocity
-    elif i == LEADING_TEMPERATURE or i == TRAILING_TEMPERATURE:
-        atol = m.atol_temperature
-    elif i == LEADING_DENSITY or i == TRAILING_DENSITY:
-        atol = m.atol_density
-    elif i == MASS_SUCTION or i == MASS_DISCHARGE:
-        atol = m.atol_mass
     else:
         atol = m.atol_work
     return atol + m.relative_tolerance * abs(value)
 
 
-@njit(cache=True)
-def _error_norm(y_new, error, m):
-    """max_i |error_i| / (atol_i + rtol |y_i|), the norm of docs/model.md §8.2 (ABM4)."""
-    worst = 0.0
-    for i in range(y_new.size):
-        worst = max(worst, abs(error[i]) / _tolerance(i, y_new[i], m))
-    return worst
-
-
-@njit(cache=True)
-def _error_rms(y_old, y_new, error, m):
-    """sqrt(mean_i (error_i / (atol_i + rtol max(|y_old,i|, |y_new,i|)))^2), Hairer's DOPRI5 norm."""
-    total = 0.0
-    for i in range(y_new.size):
-        total += (error[i] / _tolerance(i, max(abs(y_old[i]), abs(y_new[i])), m)) ** 2
-    return math.sqrt(total / y_new.size)
-
-
-@njit(cache=True)
-def _opened_too_deep(out, memory, m):
-    """True if a contact that was open at the start of the step closed with delta > max_onset_penetration."""
-    for region in range(REGIONS):
-        slot = TIP_MEMORY_SLOT if region >= 4 else region
-        if out[O_PENETRATION + region] > m.max_onset_penetration and memory[MEM_ONSET_VELOCITY + slot] <= 0.0:
-            return True
-    return False
-
-
-@njit(cache=True)
-def _all_finite(values):
-    for v in values:
-        if not math.isfinite(v):
+@kernel
+def _all_finite(values, count):
+    for i in range(count):
+        if not math.isfinite(values[i]):
             return False
     return True
 
 
-@njit(cache=True)
-def _stop_status(failure, finite):
-    """Why a run stopped when the step fell below min_step: the state check that failed, a non-finite state,
-    or the error control itself."""
-    if failure != 0:
-        return failure
-    return STEP_TOO_SMALL if finite else NOT_FINITE
-
-
-@njit(cache=True)
+@kernel
 def _clip_to_events(t, step, t_end, law, memory, m):
     """Shorten the step to land on the next event inside it; return (step, event kind)."""
     event = NO_EVENT
@@ -116,242 +111,287 @@ def _clip_to_events(t, step, t_end, law, memory, m):
     return step, event
 
 
-@njit(cache=True)
-def _accept(out, memory, m):
+@kernel
+def _opened_too_deep(out, memory, m):
+    """True if a contact that was open at the start of the step closed with delta > max_onset_penetration."""
+    for region in range(REGION_COUNT):
+        if out[O.penetration + region] > m.max_onset_penetration \
+                and memory[MEM_ONSET_VELOCITY + REGION_MEMORY_SLOT[region]] <= 0.0:
+            return True
+    return False
+
+
+@kernel
+def _update_memory(out, memory, m):
     """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed."""
-    memory[MEM_CLOSEST_OFFSET] = out[O_CLOSEST_OFFSET]
-    tip_region = 4 if out[O_CONTACT_ANGLE] > 0.0 else 5
-    for slot in range(5):
-        region = tip_region if slot == TIP_MEMORY_SLOT else slot
-        if out[O_PENETRATION + region] > 0.0:
-            if memory[MEM_ONSET_VELOCITY + slot] <= 0.0:
-                memory[MEM_ONSET_VELOCITY + slot] = max(abs(out[O_PENETRATION_RATE + region]),
-                                                        m.onset_velocity_floor)
+    memory[MEM_CLOSEST_OFFSET] = out[O.closest_parameter_offset]
+    tip_region = TIP_REGIONS[0] if out[O.contact_angle] > 0.0 else TIP_REGIONS[1]
+    for region in range(REGION_COUNT):
+        if REGION_BODY[region] == STATOR and region != tip_region:
+            continue
+        slot = MEM_ONSET_VELOCITY + REGION_MEMORY_SLOT[region]
+        if out[O.penetration + region] > 0.0:
+            if memory[slot] <= 0.0:
+                memory[slot] = max(abs(out[O.penetration_rate + region]), m.onset_velocity_floor)
         else:
-            memory[MEM_ONSET_VELOCITY + slot] = 0.0
-    changed = out[O_MODE] != memory[MEM_MODE]
-    memory[MEM_MODE] = out[O_MODE]
+            memory[slot] = 0.0
+    memory[MEM_LAW_EXCESS] = max(memory[MEM_LAW_EXCESS], out[O.contact_law_excess])
+    changed = out[O.contact_mode] != memory[MEM_MODE]
+    memory[MEM_MODE] = out[O.contact_mode]
     return changed
 
 
-@njit(cache=True)
-def _combine(target, y, h, c1, k1, c2, k2, c3, k3, c4, k4, c5, k5, c6, k6):
-    """target = y + h (c1 k1 + ... + c6 k6), element by element (no temporaries in the hot loop)."""
-    for i in range(y.size):
-        target[i] = y[i] + h * (c1 * k1[i] + c2 * k2[i] + c3 * k3[i] + c4 * k4[i] + c5 * k5[i] + c6 * k6[i])
+@kernel
+def _stage_point(target, y, h, tableau, row, k, count, n):
+    """target = y + h sum_j tableau[row, j] k_j over the first `count` stages (k: the workspace, one row a stage)."""
+    for i in range(n):
+        total = 0.0
+        for j in range(count):
+            total += tableau[row, j] * k[j, i]
+        target[i] = y[i] + h * total
 
 
-# Dormand-Prince 5(4) tableau
-A21 = 1.0 / 5.0
-A31, A32 = 3.0 / 40.0, 9.0 / 40.0
-A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
-A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
-A61, A62, A63, A64, A65 = 9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
-B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
-E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
-                          -1.0 / 40.0)
-
-
-@njit(cache=True)
-def advance_dopri5(t, y, t_end, m, law, gas, memory, control, record, counters):
-    """Adaptive Dormand-Prince 5(4) with FSAL, Hairer's RMS error norm and PI step control (DOPRI5):
-
-    h_new = h min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)),  beta = 0.04, after a rejection no growth.
-
-    Returns (status, t, rows recorded). y, memory, control and counters are updated in place.
-    """
+@kernel
+def dopri5_attempt(t, h, y, ctx, memory, work, work_rows, out):
+    """One Dormand-Prince step from (t, y) with k_1 = work[0]: the new state in work[W_Y_NEW], its output row in
+    `out` and its derivative in work[6] (first same as last); `work_rows` are the workspace's rows as arrays. Returns
+    (failure status, RMS scaled error)."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
     n = y.size
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    k5 = np.empty(n)
-    k6 = np.empty(n)
-    k7 = np.empty(n)
-    stage = np.empty(n)
-    y_new = np.empty(n)
-    error = np.empty(n)
-    zero = np.zeros(n)
-    out = np.empty(OUTPUT_SIZE)
+    failure = 0
+    for i in range(1, STAGES):
+        target = work_rows[W_Y_NEW] if i == STAGES - 1 else work_rows[W_STAGE]
+        _stage_point(target, y, h, DOPRI5_A, i, work, i, n)
+        failure |= evaluate(t + DOPRI5_C[i] * h, target, ctx, memory, work_rows[i], out, i == STAGES - 1)
+    squares = 0.0
+    for i in range(n):
+        error = 0.0
+        for j in range(STAGES):
+            error += DOPRI5_E[j] * work[j, i]
+        squares += (h * error / _tolerance(i, max(abs(y[i]), abs(work[W_Y_NEW, i])), m, c)) ** 2
+    return failure, math.sqrt(squares / n)
+
+
+@kernel
+def abm4_attempt(t, h, multistep, y, ctx, memory, history, work, work_rows, out):
+    """One ABM4 PECE step from (t, y) (docs/model.md §8.2), f_n = history[0] = work[0]:
+      AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
+      LTE ~ 19/270 (y^c - y^p);
+    or, when not `multistep`, one RK4 step (no error estimate). The new state in work[W_Y_NEW], its derivative in
+    work[6], its output row in `out`. Returns (failure status, max scaled error)."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
+    n = y.size
+    y_new = work_rows[W_Y_NEW]
+    failure = 0
+    worst = 0.0
+    if multistep:
+        y_pred = work_rows[W_Y_PREDICTED]
+        f_pred = work_rows[W_F_PREDICTED]
+        for i in range(n):
+            y_pred[i] = y[i] + h / 24.0 * (55.0 * history[0, i] - 59.0 * history[1, i] + 37.0 * history[2, i]
+                                           - 9.0 * history[3, i])
+        failure |= evaluate(t + h, y_pred, ctx, memory, f_pred, out, False)
+        for i in range(n):
+            y_new[i] = y[i] + h / 24.0 * (9.0 * f_pred[i] + 19.0 * history[0, i] - 5.0 * history[1, i]
+                                          + history[2, i])
+            worst = max(worst, abs(19.0 / 270.0 * (y_new[i] - y_pred[i])) / _tolerance(i, y_new[i], m, c))
+    else:
+        for i in range(1, 4):
+            _stage_point(work_rows[W_STAGE], y, h, RK4_A, i, work, i, n)
+            failure |= evaluate(t + RK4_C[i] * h, work_rows[W_STAGE], ctx, memory, work_rows[i], out, False)
+        for i in range(n):
+            y_new[i] = y[i] + h * (RK4_B[0] * work[0, i] + RK4_B[1] * work[1, i] + RK4_B[2] * work[2, i]
+                                   + RK4_B[3] * work[3, i])
+    failure |= evaluate(t + h, y_new, ctx, memory, work_rows[STAGES - 1], out, True)
+    return failure, worst
+
+
+@kernel
+def _cross_valley(t, y, memory, ctx, real_gas):
+    """The vane crossed the end valley of its lobe: the next lobe becomes the active one and, under real gas, the
+    chambers are switched (thermo.chamber_model.switch_chambers). Returns False if a chamber state left the
+    property table."""
+    m = ctx.machine[0]
+    if not real_gas:
+        memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
+        memory[MEM_LOBE_COUNT] += 1.0
+        return True
+    old_inputs = chamber_inputs_at(t, y, ctx, memory)
+    memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
+    memory[MEM_LOBE_COUNT] += 1.0
+    return switch_chambers(y, GAS_BLOCK, old_inputs, chamber_inputs_at(t, y, ctx, memory), ctx.chambers[0],
+                           ctx.properties)
+
+
+@kernel
+def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, out, scratch, rows_out,
+            keep_rows, lobe_records, counters):
+    """Integrate from t to t_end (module docstring). y, memory, control, history, window, run_dwell and counters are
+    updated in place; work is the workspace (WORKSPACE_ROWS rows) and work_rows the same rows as a tuple of arrays (a
+    function without reference counting cannot take views); out and scratch are output rows;
+    accepted output rows go to rows_out (all of them if keep_rows, else only the last in rows_out[0]), lobe records
+    to lobe_records.
+    Returns (status, t, rows written, lobe records written).
+
+    DOPRI5 step control (Hairer's RMS norm, PI control):
+      h_new = h min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)),  beta = 0.04, no growth after a rejection.
+    ABM4: max norm; halve on rejection, double after 8 steps with err < 1/50; RK4 steps after a restart (a new law,
+    a mode change, an event) until four points are known at the current spacing.
+    """
+    m = ctx.machine[0]
+    real_gas = m.pressure_model == REAL_GAS_MODEL
+    abm = m.integrator == ABM4
+    n = y.size
     rows = 0
-    evaluate(t, y, m, law, gas, memory, k1, out)
-    counters[EVALUATIONS] += 1
+    records = 0
     h = control[CONTROL_STEP]
     previous_error = control[CONTROL_PREVIOUS_ERROR] if control[CONTROL_PREVIOUS_ERROR] > 0.0 else 1e-4
+    valid = int(control[CONTROL_HISTORY])
+    small_errors = int(control[CONTROL_SMALL_ERRORS])
+    evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
+    counters[EVALUATIONS] += 1
+    if abm:
+        for i in range(n):
+            history[0, i] = work[0, i]
+        valid = max(valid, 1)
     rejected_last = False
-    failure = 0
     while t < t_end:
-        if rows >= record.shape[0]:
-            control[CONTROL_STEP] = h
-            control[CONTROL_PREVIOUS_ERROR] = previous_error
-            return RECORD_FULL, t, rows
-        h = min(h, m.max_step)
-        step, event = _clip_to_events(t, h, t_end, law, memory, m)
-        _combine(stage, y, step, A21, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-        failure = evaluate(t + step / 5.0, stage, m, law, gas, memory, k2, out, False)
-        _combine(stage, y, step, A31, k1, A32, k2, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-        failure |= evaluate(t + 3.0 * step / 10.0, stage, m, law, gas, memory, k3, out, False)
-        _combine(stage, y, step, A41, k1, A42, k2, A43, k3, 0.0, k1, 0.0, k1, 0.0, k1)
-        failure |= evaluate(t + 4.0 * step / 5.0, stage, m, law, gas, memory, k4, out, False)
-        _combine(stage, y, step, A51, k1, A52, k2, A53, k3, A54, k4, 0.0, k1, 0.0, k1)
-        failure |= evaluate(t + 8.0 * step / 9.0, stage, m, law, gas, memory, k5, out, False)
-        _combine(stage, y, step, A61, k1, A62, k2, A63, k3, A64, k4, A65, k5, 0.0, k1)
-        failure |= evaluate(t + step, stage, m, law, gas, memory, k6, out, False)
-        _combine(y_new, y, step, B1, k1, B3, k3, B4, k4, B5, k5, B6, k6, 0.0, k1)
-        failure |= evaluate(t + step, y_new, m, law, gas, memory, k7, out)
-        counters[EVALUATIONS] += 6
-        _combine(error, zero, step, E1, k1, E3, k3, E4, k4, E5, k5, E6, k6, E7, k7)
-        finite = _all_finite(y_new) and _all_finite(error)
-        err = _error_rms(y, y_new, error, m) if finite else math.inf
+        if (keep_rows and rows >= rows_out.shape[0]) or records >= lobe_records.shape[0]:
+            break
+        if not abm:
+            h = min(h, m.max_step)
+        step, event = _clip_to_events(t, h, t_end, ctx.law, memory, m)
+        multistep = abm and valid >= 4 and event == NO_EVENT
+        if abm:
+            failure, err = abm4_attempt(t, step, multistep, y, ctx, memory, history, work, work_rows, out)
+            counters[EVALUATIONS] += 2 if multistep else 4
+        else:
+            failure, err = dopri5_attempt(t, step, y, ctx, memory, work, work_rows, out)
+            counters[EVALUATIONS] += 6
+        finite = _all_finite(work_rows[W_Y_NEW], n) and _all_finite(work_rows[STAGES - 1], n)
+        if not finite:
+            err = math.inf
         if err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m):
             counters[REJECTED] += 1
             rejected_last = True
-            if err > 1.0 and finite:
+            if abm:
+                h = 0.5 * min(h, step)
+                valid = 1
+                small_errors = 0
+            elif err > 1.0 and finite:
                 h = step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
             else:
                 h = 0.5 * step
             if h < m.min_step:
                 control[CONTROL_STEP] = h
-                return _stop_status(failure, finite), t, rows
-            continue
-        counters[ACCEPTED] += 1
-        t = t_end if event == END_EVENT else t + step
-        y[:] = y_new
-        k1, k7 = k7, k1
-        record[rows, :] = out
-        rows += 1
-        if _accept(out, memory, m):
-            counters[MODE_CHANGES] += 1
-        if event == VALLEY_EVENT:
-            if not cross_valley(t, y, memory, m, law, gas):
-                control[CONTROL_STEP] = h
-                return GAS_STATE_INVALID, t, rows
-            counters[VALLEY_CROSSINGS] += 1
-            evaluate(t, y, m, law, gas, memory, k1, out)
-            counters[EVALUATIONS] += 1
-        err = max(err, 1e-10)
-        factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * previous_error ** PI_BETA))
-        if rejected_last:
-            factor = min(factor, 1.0)
-        previous_error = max(err, 1e-4)
-        rejected_last = False
-        h = max(h, step * factor) if event != NO_EVENT else step * factor
-    control[CONTROL_STEP] = h
-    control[CONTROL_PREVIOUS_ERROR] = previous_error
-    return REACHED_END, t, rows
-
-
-@njit(cache=True)
-def _rk4_step(t, y, h, k1, m, law, gas, memory, k2, k3, k4, stage, y_new, out):
-    """Classical RK4 (thesis Table 4.1): y+ = y + h (k1 + 2 k2 + 2 k3 + k4)/6, k1 given."""
-    _combine(stage, y, 0.5 * h, 1.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-    failure = evaluate(t + 0.5 * h, stage, m, law, gas, memory, k2, out, False)
-    _combine(stage, y, 0.5 * h, 1.0, k2, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-    failure |= evaluate(t + 0.5 * h, stage, m, law, gas, memory, k3, out, False)
-    _combine(stage, y, h, 1.0, k3, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1, 0.0, k1)
-    failure |= evaluate(t + h, stage, m, law, gas, memory, k4, out, False)
-    _combine(y_new, y, h / 6.0, 1.0, k1, 2.0, k2, 2.0, k3, 1.0, k4, 0.0, k1, 0.0, k1)
-    return failure
-
-
-@njit(cache=True)
-def advance_abm4(t, y, t_end, m, law, gas, memory, control, history, record, counters):
-    """ABM4 PECE with RK4 start, Milne error estimate and step halving/doubling (docs/model.md §8.2).
-
-    AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
-    LTE ~ 19/270 (y^c - y^p).  history[j] = f_n-j at spacing h; control[CONTROL_HISTORY] counts valid points.
-    Steps that must land on an event, and the first three after a restart, are RK4 steps.
-    Returns (status, t, rows recorded).
-    """
-    n = y.size
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    stage = np.empty(n)
-    y_new = np.empty(n)
-    y_pred = np.empty(n)
-    f_pred = np.empty(n)
-    f_new = np.empty(n)
-    error = np.empty(n)
-    out = np.empty(OUTPUT_SIZE)
-    rows = 0
-    h = control[CONTROL_STEP]
-    valid = int(control[CONTROL_HISTORY])
-    small_errors = int(control[CONTROL_SMALL_ERRORS])
-    if valid < 1:
-        evaluate(t, y, m, law, gas, memory, history[0], out)
-        counters[EVALUATIONS] += 1
-        valid = 1
-    while t < t_end:
-        if rows >= record.shape[0]:
-            break
-        step, event = _clip_to_events(t, h, t_end, law, memory, m)
-        multistep = valid >= 4 and event == NO_EVENT
-        if multistep:
-            _combine(y_pred, y, h / 24.0, 55.0, history[0], -59.0, history[1], 37.0, history[2], -9.0, history[3],
-                     0.0, f_new, 0.0, f_new)
-            failure = evaluate(t + h, y_pred, m, law, gas, memory, f_pred, out, False)
-            _combine(y_new, y, h / 24.0, 9.0, f_pred, 19.0, history[0], -5.0, history[1], 1.0, history[2],
-                     0.0, f_new, 0.0, f_new)
-            counters[EVALUATIONS] += 1
-            for i in range(n):
-                error[i] = 19.0 / 270.0 * (y_new[i] - y_pred[i])
-        else:
-            failure = _rk4_step(t, y, step, history[0], m, law, gas, memory, k2, k3, k4, stage, y_new,
-                                out)
-            counters[EVALUATIONS] += 3
-            error[:] = 0.0
-        failure |= evaluate(t + step, y_new, m, law, gas, memory, f_new, out)
-        counters[EVALUATIONS] += 1
-        finite = _all_finite(y_new) and _all_finite(f_new)
-        err = _error_norm(y_new, error, m) if finite else math.inf
-        if err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m):
-            counters[REJECTED] += 1
-            h = 0.5 * min(h, step)
-            valid = 1
-            small_errors = 0
-            if h < m.min_step:
-                control[CONTROL_STEP] = h
                 control[CONTROL_HISTORY] = valid
-                return _stop_status(failure, finite), t, rows
+                if failure != 0:
+                    return failure, t, rows, records
+                return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
             continue
+        # accepted ---------------------------------------------------------------------------------------------
         counters[ACCEPTED] += 1
         t = t_end if event == END_EVENT else t + step
-        y[:] = y_new
-        record[rows, :] = out
-        rows += 1
-        if event == NO_EVENT:
-            for j in range(ABM_HISTORY - 1, 0, -1):
-                history[j, :] = history[j - 1]
-            history[0, :] = f_new
-            valid = min(valid + 1, ABM_HISTORY)
-        else:
-            history[0, :] = f_new
-            valid = 1
-        mode_changed = _accept(out, memory, m)
+        copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
+        copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
+        mode_changed = _update_memory(out, memory, m)
         if mode_changed:
             counters[MODE_CHANGES] += 1
+        accumulate(window, run_dwell, out)
+        row = rows if keep_rows else 0
+        for i in range(out.size):
+            rows_out[row, i] = out[i]
+        rows += 1
         if event == VALLEY_EVENT:
-            if not cross_valley(t, y, memory, m, law, gas):
+            records = close_window(window, out, round(memory[MEM_LOBE_START] * m.lobes / (2.0 * math.pi)) + 1,
+                                   lobe_records, records)
+            if not _cross_valley(t, y, memory, ctx, real_gas):
                 control[CONTROL_STEP] = h
-                return GAS_STATE_INVALID, t, rows
+                return GAS_STATE_INVALID, t, rows, records
             counters[VALLEY_CROSSINGS] += 1
-            evaluate(t, y, m, law, gas, memory, history[0], out)
+            evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
             counters[EVALUATIONS] += 1
-        if mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT:
-            valid = 1
-            counters[RESTARTS] += 1
-        small_errors = small_errors + 1 if (multistep and err < 1.0 / 50.0) else 0
-        if small_errors >= 8 and 2.0 * h <= m.max_step:
-            if valid >= ABM_HISTORY:
-                for j in range(1, 4):
-                    history[j, :] = history[2 * j]
-                valid = 4
+        # step size for the next step ------------------------------------------------------------------------
+        if abm:
+            if event == NO_EVENT:
+                for j in range(ABM_HISTORY - 1, 0, -1):
+                    for i in range(n):
+                        history[j, i] = history[j - 1, i]
+                valid = min(valid + 1, ABM_HISTORY)
             else:
                 valid = 1
-            h *= 2.0
-            small_errors = 0
+            for i in range(n):
+                history[0, i] = work[0, i]
+            if mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT:
+                valid = 1
+                counters[RESTARTS] += 1
+            small_errors = small_errors + 1 if (multistep and err < 1.0 / 50.0) else 0
+            if small_errors >= 8 and 2.0 * h <= m.max_step:
+                if valid >= ABM_HISTORY:
+                    for j in range(1, 4):
+                        for i in range(n):
+                            history[j, i] = history[2 * j, i]
+                    valid = 4
+                else:
+                    valid = 1
+                h *= 2.0
+                small_errors = 0
+        else:
+            err = max(err, 1e-10)
+            factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * previous_error ** PI_BETA))
+            if rejected_last:
+                factor = min(factor, 1.0)
+            previous_error = max(err, 1e-4)
+            h = max(h, step * factor) if event != NO_EVENT else step * factor
+        rejected_last = False
     control[CONTROL_STEP] = h
+    control[CONTROL_PREVIOUS_ERROR] = previous_error
     control[CONTROL_HISTORY] = valid
     control[CONTROL_SMALL_ERRORS] = small_errors
-    return (REACHED_END if t >= t_end else RECORD_FULL), t, rows
+    return (REACHED_END if t >= t_end else RECORD_FULL), t, rows, records
+
+
+@kernel(allocates=True)
+def context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
+            ideal_gas_exponent, sector_segments, sector_nodes):
+    """The KernelContext of plain arrays: only arrays cross the Python -> numba boundary (a named tuple costs
+    microseconds per call to unbox), the named records are built here."""
+    return KernelContext(machine, law, pressure_table, chambers,
+                         table_from_arrays(table_scalars, table_nodes, dome_limit, accurate_cell,
+                                           ideal_gas_exponent),
+                         SectorTable(sector_segments, sector_nodes))
+
+
+@kernel(allocates=True)
+def run(t, t_end, y, memory, control, history, window, run_dwell, work, outs, rows_out, keep_rows, lobe_records,
+        counters, machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
+        ideal_gas_exponent, sector_segments, sector_nodes):
+    """`advance` with its context and workspace given as arrays (the entry point mechanics.simulation calls): the
+    named records and the tuple of workspace rows are built here, once per advance."""
+    ctx = context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
+                  ideal_gas_exponent, sector_segments, sector_nodes)
+    work_rows = (work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10])
+    return advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, outs[0], outs[1],
+                   rows_out, keep_rows, lobe_records, counters)
+
+
+@kernel(allocates=True)
+def evaluate_state(t, y, memory, out, rates, machine, law, pressure_table, chambers, table_scalars, table_nodes,
+                   dome_limit, accurate_cell, ideal_gas_exponent, sector_segments, sector_nodes):
+    """dy/dt (into `rates`) and the output row (into `out`) of the state (t, y) with the given memory, as an
+    accepted step would report it; returns the kernel status of the state."""
+    ctx = context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
+                  ideal_gas_exponent, sector_segments, sector_nodes)
+    return evaluate(t, y, ctx, memory, rates, out, True)
+
+
+@kernel(allocates=True)
+def initial_chamber_inputs(t, y, memory, machine, law, pressure_table, chambers, table_scalars, table_nodes,
+                           dome_limit, accurate_cell, ideal_gas_exponent, sector_segments, sector_nodes):
+    """(V_L, V_T) geometric chamber volumes of the state (t, y), to fill the chambers at the start of a run."""
+    ctx = context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
+                  ideal_gas_exponent, sector_segments, sector_nodes)
+    inputs = chamber_inputs_at(t, y, ctx, memory)
+    return inputs.volume_leading, inputs.volume_trailing

@@ -1,12 +1,15 @@
 """The constants the compiled time loop reads: geometry, mass properties, contact and numerics (docs/model.md §2, §5, §8).
 
-`Machine` is a flat named tuple of floats (numba passes it by value, with named fields); choices are stored as
-their integer codes. It is derived from validated `CompressorParameters` and never edited by hand.
+They form one numpy record (`MACHINE_DTYPE`, all float64, choices as their integer codes), derived from validated
+`CompressorParameters` and never edited by hand. A record crosses into numba as cheaply as any array (a named
+tuple of 45 floats costs about 6 us per call to unbox), and numba reads its fields by name.
 """
 import math
 from typing import NamedTuple
 
-from .chambers import stator_lobe_integral
+import numpy as np
+
+from .chamber_geometry import sector_integral, sector_table
 from .displacement import LAW_CODES
 from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
 
@@ -44,92 +47,36 @@ def effective_modulus(youngs_modulus, poisson_ratio) -> float:
     return youngs_modulus / (2.0 * (1.0 - poisson_ratio ** 2))
 
 
-class Machine(NamedTuple):
-    lobes: float
-    law: float
-    stroke: float
-    bottom_dwell: float
-    top_dwell: float
-    rotor_radius: float
-    base_radius: float            # R0
-    tip_radius: float             # rho
-    half_thickness: float         # t/2
-    half_slot_width: float        # w/2
-    mouth_radius: float           # R_m
-    slot_bottom_radius: float
-    stator_clearance: float       # c_S
-    envelope_offset: float        # d
-    axial_length: float           # L
-    tip_centre: float             # xi_T, vane frame (origin at G)
-    bottom_face: float            # xi_B, vane frame
-    vane_mass: float
-    vane_inertia: float
-    rotor_inertia: float
-    edge_radius: float
-    effective_modulus: float      # E*
-    compliance: float             # (1 - nu^2)/E of one body, for the line-contact law
-    stiffness_model: float
-    restitution: float
-    onset_velocity_floor: float
-    friction_model: float
-    friction_coefficient: float
-    friction_velocity: float
-    friction_velocity_full: float
-    suction_pressure: float
-    discharge_pressure: float
-    relative_tolerance: float
-    atol_position: float
-    atol_angle: float
-    atol_velocity: float
-    atol_angular_velocity: float
-    atol_work: float
-    min_step: float
-    max_step: float
-    max_onset_penetration: float
-    # chamber gas (docs/model.md §7; Level 1 uses the fluid's values, the tables the ideal-gas parameters)
-    pressure_model: float
-    suction_temperature: float
-    suction_density: float
-    suction_enthalpy: float
-    dead_volume: float
-    suction_close_angle: float
-    suction_port_area: float
-    suction_port_coefficient: float
-    discharge_port_area: float
-    discharge_port_coefficient: float
-    leak_coefficient: float
-    nozzle_heat_capacity_ratio: float
-    nozzle_gas_constant: float
-    atol_temperature: float
-    atol_density: float
-    atol_mass: float
-    stator_lobe_integral: float   # int (1/2 r^2 + d N) du over a lobe (mechanics.chambers), m^2
+# (field, meaning): every constant the mechanics kernels read, all float64; choices as integer codes
+MACHINE_FIELDS = (
+    ("lobes", "z"), ("law", "displacement law code"), ("stroke", "h [m]"), ("bottom_dwell", "beta0 [rad]"),
+    ("top_dwell", "beta1 [rad]"), ("rotor_radius", "R_r [m]"), ("base_radius", "R0 [m]"),
+    ("tip_radius", "rho [m]"), ("half_thickness", "t/2 [m]"), ("half_slot_width", "w/2 [m]"),
+    ("mouth_radius", "R_m [m]"), ("slot_bottom_radius", "r_sb [m]"), ("stator_clearance", "c_S [m]"),
+    ("envelope_offset", "d = rho + c_S [m]"), ("axial_length", "L [m]"),
+    ("tip_centre", "xi_T, vane frame with origin at G [m]"), ("bottom_face", "xi_B, vane frame [m]"),
+    ("vane_mass", "m3 [kg]"), ("vane_inertia", "J3 [kg m2]"), ("rotor_inertia", "J2 [kg m2]"),
+    ("edge_radius", "[m]"), ("effective_modulus", "E* [Pa]"),
+    ("compliance", "(1 - nu^2)/E of one body, line-contact law [1/Pa]"), ("stiffness_model", "code"),
+    ("restitution", "c_e"), ("onset_velocity_floor", "[m/s]"), ("friction_model", "code"),
+    ("friction_coefficient", "mu"), ("friction_velocity", "v_0 [m/s]"), ("friction_velocity_full", "v_1 [m/s]"),
+    ("suction_pressure", "p_s [Pa]"), ("discharge_pressure", "p_d, also the back chamber [Pa]"),
+    ("pressure_model", "code"), ("integrator", "code"), ("relative_tolerance", "rtol"),
+    ("atol_position", "[m]"), ("atol_angle", "[rad]"), ("atol_velocity", "[m/s]"),
+    ("atol_angular_velocity", "[rad/s]"), ("atol_work", "[J]"), ("min_step", "[s]"), ("max_step", "[s]"),
+    ("max_onset_penetration", "[m]"),
+    ("stator_lobe_integral", "int (1/2 r^2 + d N) du over a lobe (mechanics.chamber_geometry) [m2]"),
+)
+MACHINE_DTYPE = np.dtype([(name, np.float64) for name, _ in MACHINE_FIELDS])
 
 
-class SuctionGas(NamedTuple):
-    """What the kernels need of the working fluid: suction density and enthalpy (consistent with the property
-    table under Level 1), and the ideal-gas k and R of the nozzle law (docs/model.md §7.4)."""
-    density: float
-    enthalpy: float
-    heat_capacity_ratio: float
-    gas_constant: float
-
-
-def ideal_suction_gas(p: CompressorParameters) -> SuctionGas:
-    """The Level 0.5 ideal gas (k, R parameters) at the suction state; enthalpy c_p T_s."""
-    return SuctionGas(p.suction_pressure / (p.gas_constant * p.suction_temperature),
-                      p.heat_capacity_ratio * p.gas_constant / (p.heat_capacity_ratio - 1.0) * p.suction_temperature,
-                      p.heat_capacity_ratio, p.gas_constant)
-
-
-def machine_from_parameters(p: CompressorParameters, gas: SuctionGas | None = None) -> Machine:
-    """Derive the kernel constants from validated parameters (docs/model.md §2.1, §2.2, §5.2, §7, §8.2); `gas` defaults to
-    the ideal gas of the parameters."""
-    gas = gas or ideal_suction_gas(p)
+def machine_array(p: CompressorParameters) -> np.recarray:
+    """The kernel constants of validated parameters as a one-row record array (docs/model.md §2.1, §2.2, §5.2,
+    §8.2): numba reads its fields by name (`m = machine[0]; m.stroke`) and passes it at the cost of an array."""
     vane = vane_mass_properties(p.vane_thickness, p.vane_length, p.axial_length, p.vane_density)
     tip_centre = -vane.centre_of_mass
     scale = p.tolerance_scale
-    machine = Machine(
+    values = dict(
         lobes=float(p.lobes), law=float(LAW_CODES[p.displacement_law]), stroke=p.stroke,
         bottom_dwell=p.bottom_dwell, top_dwell=p.top_dwell, rotor_radius=p.rotor_radius,
         base_radius=p.base_radius, tip_radius=p.tip_radius, half_thickness=0.5 * p.vane_thickness,
@@ -145,20 +92,25 @@ def machine_from_parameters(p: CompressorParameters, gas: SuctionGas | None = No
         friction_coefficient=p.friction_coefficient, friction_velocity=p.friction_velocity,
         friction_velocity_full=p.friction_velocity_full,
         suction_pressure=p.suction_pressure, discharge_pressure=p.discharge_pressure,
-        relative_tolerance=p.relative_tolerance, atol_position=1e-9 * scale, atol_angle=1e-8 * scale,
-        atol_velocity=1e-6 * scale, atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
+        pressure_model=float(PRESSURE_MODELS.index(p.pressure_model)),
+        integrator=float(INTEGRATORS.index(p.integrator)), relative_tolerance=p.relative_tolerance,
+        atol_position=1e-9 * scale, atol_angle=1e-8 * scale, atol_velocity=1e-6 * scale,
+        atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
         min_step=p.min_step, max_step=p.max_step, max_onset_penetration=p.max_onset_penetration,
-        pressure_model=float(PRESSURE_MODELS.index(p.pressure_model)), suction_temperature=p.suction_temperature,
-        suction_density=gas.density, suction_enthalpy=gas.enthalpy, dead_volume=p.dead_volume,
-        suction_close_angle=p.suction_close_angle, suction_port_area=p.suction_port_area,
-        suction_port_coefficient=p.suction_port_coefficient, discharge_port_area=p.discharge_port_area,
-        discharge_port_coefficient=p.discharge_port_coefficient, leak_coefficient=p.leak_coefficient,
-        nozzle_heat_capacity_ratio=gas.heat_capacity_ratio, nozzle_gas_constant=gas.gas_constant,
-        atol_temperature=1e-4 * scale, atol_density=1e-6 * scale, atol_mass=1e-12 * scale,
         stator_lobe_integral=math.nan)
-    return machine._replace(stator_lobe_integral=stator_lobe_integral(machine))
+    machine = np.rec.array(np.zeros(1, dtype=MACHINE_DTYPE))
+    for name, value in values.items():
+        machine[name] = value
+    machine["stator_lobe_integral"] = 2.0 * sector_integral(math.pi / p.lobes, sector_table(machine[0]))
+    return machine
 
 
-INTEGRATOR_CODES = {name: i for i, name in enumerate(INTEGRATORS)}
+def machine_from_parameters(p: CompressorParameters):
+    """The kernel constants as one record (fields by name, in Python and in numba), e.g. for calling a kernel
+    function directly; the time loop takes `machine_array`."""
+    return machine_array(p)[0]
+
+
 PRESSURE_MODEL_CODES = {name: i for i, name in enumerate(PRESSURE_MODELS)}
 REAL_GAS_MODEL = float(PRESSURE_MODEL_CODES["real_gas"])
+DOPRI5, ABM4 = (float(INTEGRATORS.index(name)) for name in ("dopri5", "abm4"))

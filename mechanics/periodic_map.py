@@ -28,6 +28,7 @@ import numpy as np
 
 from rotary_vane.thermo.compile_cache import cache_root, source_hash
 
+from .outputs import REVOLUTION, STEP, fmu_outputs
 from .parameters import CompressorParameters
 from .performance import revolutions
 from .simulation import Simulation
@@ -36,24 +37,10 @@ from .speed import RPM, constant_speed
 FORMAT_VERSION = 1
 PROJECT_DIR = Path(__file__).resolve().parent.parent
 TORQUE = "driving_torque"
-# channels sampled per angle: table name -> detailed-model output column(s) (summed)
-CHANNELS = {
-    TORQUE: ("driving_torque",),
-    "stator_reaction_moment": ("stator_contact_moment", "stator_gas_moment"),
-    "leading_pressure": ("leading_pressure",),
-    "trailing_pressure": ("trailing_pressure",),
-    **{f"normal_force_{k}": (f"normal_force_{k}",) for k in range(1, 7)},
-    "vane_displacement": ("vane_displacement",),
-    "vane_radial_velocity": ("vane_radial_velocity",),
-    "vane_radial_acceleration": ("vane_radial_acceleration",),
-    "vane_tangential_velocity": ("vane_tangential_velocity",),
-    "vane_tangential_acceleration": ("vane_tangential_acceleration",),
-    "vane_tilt": ("vane_tilt",),
-}
-# per-revolution figures (real-gas figures are NaN under the pressure tables)
-FIGURES = ("input_power", "output_power", "friction_power", "damping_power", "mechanical_efficiency",
-           "max_contact_force", "suction_mass_flow", "discharge_mass_flow", "discharge_temperature",
-           "indicated_power", "volumetric_efficiency", "isentropic_efficiency")
+# channels sampled per angle: the output columns behind the FMU's end-of-step outputs (mechanics.outputs)
+CHANNELS = tuple(output.source for output in fmu_outputs() if output.per == STEP)
+# per-revolution figures: those behind the FMU's per-revolution outputs (real-gas ones are NaN under the tables)
+FIGURES = tuple(output.source for output in fmu_outputs() if output.per == REVOLUTION)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,8 +130,8 @@ def run_speed_point(params: CompressorParameters, speed_rpm: float, settings: Ma
     step = 2.0 * math.pi / settings.samples
     start = settings.warmup_revolutions * 2.0 * math.pi
     waveforms = {}
-    for name, columns in CHANNELS.items():
-        values = sum(history[c] for c in columns)
+    for name in CHANNELS:
+        values = history[name]
         per_revolution = []
         for r in range(settings.averaged_revolutions):
             base = start + r * 2.0 * math.pi
@@ -160,16 +147,7 @@ def run_speed_point(params: CompressorParameters, speed_rpm: float, settings: Ma
     if len(summaries) != settings.averaged_revolutions:
         raise RuntimeError(f"{len(summaries)} complete revolutions recorded at {speed_rpm} rpm, expected "
                            f"{settings.averaged_revolutions}")
-    figures = {name: [] for name in FIGURES}
-    for summary in summaries:
-        row = dict(input_power=summary.input_power, output_power=summary.output_power,
-                   friction_power=summary.friction_power, damping_power=summary.damping_power,
-                   mechanical_efficiency=summary.mechanical_efficiency,
-                   max_contact_force=max(summary.max_normal_force))
-        if simulation.gas_reference is not None:
-            row.update({k: v for k, v in simulation.gas_reference.figures(summary).items() if k in FIGURES})
-        for name in FIGURES:
-            figures[name].append(row.get(name, math.nan))
+    figures = {name: [getattr(summary, name) for summary in summaries] for name in FIGURES}
     return dict(speed_rpm=float(speed_rpm),
                 mean={n: w.mean(axis=0) for n, w in waveforms.items()},
                 scatter={n: float(np.sqrt(np.mean((w - w.mean(axis=0)) ** 2))) for n, w in waveforms.items()},

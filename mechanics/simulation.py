@@ -1,34 +1,39 @@
 """`Simulation`: owns all state of one compressor run and advances it in time (docs/model.md §8.1, ARCHITECTURE "State").
 
 Build it from validated parameters and a speed law, call `advance(t)` as often as needed (optionally with a new
-speed for the advance, as an FMU does once per communication step), and read `outputs`, `history` and the
-per-revolution summaries. All arrays the compiled loop needs live here, so saving and restoring a run is a copy.
+speed for the advance, as an FMU does once per communication step), and read `outputs`, `history`, the lobe
+records and the per-revolution summaries (mechanics.performance). All arrays the compiled loop needs live here, so
+saving and restoring a run is a copy, and an advance is one call of the compiled loop.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
-from rotary_vane.thermo.property_table import describe_status, table_status
+from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
+from rotary_vane.thermo.property_table import describe_status, table_from_arrays, table_status
 
+from .chamber_geometry import sector_table
 from .displacement import displacement
 from .errors import IntegrationError
+from .gas_coupling import gas_coupling
 from .geometry import law_arguments
-from .dynamics import evaluate
-from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, advance_abm4,
-                          advance_dopri5)
-from .layout import (MEM_LOBE_COUNT, GAS_STATE_INVALID, LEADING_DENSITY, LEADING_TEMPERATURE, REAL_GAS_STATE_SIZE, TRAILING_DENSITY,
-                     TRAILING_TEMPERATURE, ANGLE, ANGULAR_VELOCITY, MEM_LOBE_START, MEMORY_SIZE,
-                     OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE, REACHED_END, RECORD_FULL, STATE_SIZE, STATUS_TEXT, VX,
+from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, WORKSPACE_ROWS,
+                          evaluate_state, initial_chamber_inputs, run)
+from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
+                     MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
                      VY, WORK_IN, X, Y)
-from .gas_source import gas_source
-from .machine import machine_from_parameters
+from .machine import machine_array
+from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
+from .performance import WindowSummary, revolution_groups, summarise_records
 from .speed import SpeedLaw, check_speed, constant_speed, rotor_motion
+from .windows import MODE_KEYS, RECORD_SIZE, new_window
 
-RECORD_CHUNK = 4096
+HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
+RECORD_CHUNK = 64               # lobe records per call of the loop
 
 
 class History:
@@ -48,15 +53,21 @@ class History:
 
 @dataclass
 class SimulationState:
-    """A full copy of everything the run depends on (for save/restore)."""
+    """A full copy of everything the continuation depends on (for save/restore, FMU rollback)."""
     time: float
     state: np.ndarray
     memory: np.ndarray
     control: np.ndarray
     abm_history: np.ndarray
+    window: np.ndarray
+    run_dwell: np.ndarray
     speed_law: np.ndarray
     last_output: np.ndarray
     counters: np.ndarray
+    recent_records: np.ndarray
+
+
+ARRAY_FIELDS = tuple(f.name for f in fields(SimulationState) if f.name != "time")
 
 
 class Simulation:
@@ -65,16 +76,13 @@ class Simulation:
     params: validated `CompressorParameters` (defaults of docs/model.md §9 if omitted).
     speed: a `SpeedLaw` from t = 0 (default constant 1500 rpm).
     initial_angle: rotor angle theta0 at t = 0 [rad]; docs/model.md §3.3 uses 0.02 for constant speed, 0 for start-up.
-    keep_history: record every accepted step (needed for plots and revolution summaries).
+    keep_history: record every accepted step and every lobe record (for plots and studies); without it only the
+        last output row and the lobe records of the last revolution are kept (what an FMU needs).
     table_speed_rpm: operating speed of the Level 0.5 pressure table (default: the speed law's target).
-    observers: callables given the output row of the initial state (t = 0, not part of the history), then each
-        chunk of accepted output rows as it is produced (they copy what they keep); a per-revolution monitor thus
-        sees the start as a boundary when the run starts on one.
     """
 
     def __init__(self, params: CompressorParameters | None = None, speed: SpeedLaw | None = None,
-                 initial_angle: float = 0.02, keep_history: bool = True, table_speed_rpm: float | None = None,
-                 observers=()):
+                 initial_angle: float = 0.02, keep_history: bool = True, table_speed_rpm: float | None = None):
         self.params = params if params is not None else CompressorParameters()
         speed = speed if speed is not None else constant_speed(1500.0)
         if not isinstance(speed, SpeedLaw):
@@ -88,32 +96,46 @@ class Simulation:
             raise ValueError(f"'table_speed_rpm' = {table_rpm!r} rpm (the speed law's target unless given) is "
                              f"invalid for pressure_model 'ideal_gas_table': allowed an operating speed > 0 rpm "
                              f"(the table depends on it)")
-        self.gas, suction_gas, self.gas_reference = gas_source(self.params, operating_speed)
-        self.machine = machine_from_parameters(self.params, suction_gas)
+        p = self.params
+        self.gas = gas_coupling(p, operating_speed)
+        self.gas_reference = self.gas.reference
+        machine = machine_array(p)
+        self.machine = machine[0]                  # the constants by name (mechanics.machine)
+        sectors = sector_table(self.machine)
+        self._context = (machine, None, self.gas.pressure_table, self.gas.chambers, *self.gas.properties,
+                         sectors.segments, sectors.nodes)
         self.keep_history = keep_history
-        self.observers = list(observers)
         self.time = 0.0
         self.speed_law = speed.segment(0.0, float(initial_angle))
         self.state = self._nominal_state(float(initial_angle), rotor_motion(0.0, self.speed_law)[1])
         self.memory = np.zeros(MEMORY_SIZE)
-        lobe = 2.0 * math.pi / self.params.lobes
+        lobe = 2.0 * math.pi / p.lobes
         self.memory[MEM_LOBE_START] = math.floor(initial_angle / lobe) * lobe
         self.control = np.zeros(CONTROL_SIZE)
-        self.control[CONTROL_STEP] = self.params.initial_step
+        self.control[CONTROL_STEP] = p.initial_step
         self.abm_history = np.zeros((ABM_HISTORY, self.state.size))
         self.counters = np.zeros(COUNTER_SIZE, dtype=np.int64)
+        self.run_dwell = np.zeros(MODE_KEYS)
+        self._work = np.zeros((WORKSPACE_ROWS, self.state.size))
+        self._outs = np.zeros((2, OUTPUT_SIZE))
+        self._rows = np.empty((HISTORY_CHUNK if keep_history else 1, OUTPUT_SIZE))
+        self._record_buffer = np.empty((RECORD_CHUNK, RECORD_SIZE))
         self._chunks: list[np.ndarray] = []
-        self._record = np.empty((RECORD_CHUNK, OUTPUT_SIZE))
-        self.last_output = np.full(OUTPUT_SIZE, np.nan)
-        if self.observers:
-            initial = np.empty((1, OUTPUT_SIZE))
-            evaluate(self.time, self.state, self.machine, self.speed_law, self.gas, self.memory.copy(),
-                     np.empty(self.state.size), initial[0])
-            for observer in self.observers:
-                observer(initial)
+        self._records: list[np.ndarray] = []
+        self.recent_records = np.empty((0, RECORD_SIZE))
+        self.last_revolution: WindowSummary | None = None
+        self.initial_output = np.empty(OUTPUT_SIZE)
+        status = evaluate_state(self.time, self.state, self.memory, self.initial_output, np.empty(self.state.size),
+                                *self._kernel_context())
+        if status != 0:
+            raise IntegrationError(self._failure_text(status), self.time, self.state)
+        self.last_output = self.initial_output.copy()
+        at_valley = abs(initial_angle - self.memory[MEM_LOBE_START]) <= 1e-12 * max(1.0, abs(initial_angle))
+        self.window = new_window(self.initial_output, at_valley)
 
     def _nominal_state(self, angle: float, omega: float) -> np.ndarray:
-        """Nominal pose and velocity (docs/model.md §3.3): untilted, centred, tip centre at R0 + s + c_S."""
+        """Nominal pose and velocity (docs/model.md §3.3): untilted, centred, tip centre at R0 + s + c_S; under real
+        gas both chambers hold suction gas (docs/model.md §7.2)."""
         p = self.params
         s, ds, _, _ = displacement(angle, *law_arguments(p)[:5])
         radius = p.base_radius + s + p.stator_clearance
@@ -123,13 +145,28 @@ class Simulation:
         centre = (radius - tip_centre) * e_r
         velocity = ds * omega * e_r + (radius - tip_centre) * omega * e_t
         real_gas = p.pressure_model == "real_gas"
-        y = np.zeros(REAL_GAS_STATE_SIZE if real_gas else STATE_SIZE)
+        y = np.zeros(REAL_GAS_STATE_SIZE if real_gas else VANE_STATE_SIZE)
         y[X], y[Y], y[ANGLE] = centre[0], centre[1], angle
         y[VX], y[VY], y[ANGULAR_VELOCITY] = velocity[0], velocity[1], omega
-        if real_gas:                                # both chambers start at the suction state (docs/model.md §7.2)
-            y[LEADING_TEMPERATURE] = y[TRAILING_TEMPERATURE] = p.suction_temperature
-            y[LEADING_DENSITY] = y[TRAILING_DENSITY] = self.machine.suction_density
+        if real_gas:
+            y[GAS_BLOCK + LEADING_TEMPERATURE] = y[GAS_BLOCK + TRAILING_TEMPERATURE] = p.suction_temperature
+            y[GAS_BLOCK + LEADING_MASS] = y[GAS_BLOCK + TRAILING_MASS] = math.nan     # set from the volumes below
+            self._fill_chambers_with_suction_gas(y)
         return y
+
+    def _fill_chambers_with_suction_gas(self, y: np.ndarray) -> None:
+        """Chamber masses rho_s V of the nominal pose's volumes (with the dead volume)."""
+        memory = np.zeros(MEMORY_SIZE)
+        lobe = 2.0 * math.pi / self.params.lobes
+        memory[MEM_LOBE_START] = math.floor(y[ANGLE] / lobe) * lobe
+        volumes = initial_chamber_inputs(0.0, y, memory, *self._kernel_context())
+        dead = self.params.dead_volume
+        y[GAS_BLOCK + LEADING_MASS] = self.gas.suction_density * (volumes[0] + dead)
+        y[GAS_BLOCK + TRAILING_MASS] = self.gas.suction_density * (volumes[1] + dead)
+
+    def _kernel_context(self) -> tuple:
+        machine, _, *rest = self._context
+        return (machine, self.speed_law, *rest)
 
     # speed input ----------------------------------------------------------------------------------------
     def set_speed(self, speed: SpeedLaw) -> None:
@@ -163,45 +200,74 @@ class Simulation:
             self._speed_for_advance(float(end_time), speed_rpm, interpolate)
         if end_time == self.time:
             return
-        method_abm4 = self.params.integrator == "abm4"
         while True:
-            if method_abm4:
-                status, t, rows = advance_abm4(self.time, self.state, float(end_time), self.machine,
-                                               self.speed_law, self.gas, self.memory, self.control,
-                                               self.abm_history, self._record, self.counters)
-            else:
-                status, t, rows = advance_dopri5(self.time, self.state, float(end_time), self.machine,
-                                                 self.speed_law, self.gas, self.memory, self.control,
-                                                 self._record, self.counters)
+            status, t, rows, records = run(
+                self.time, float(end_time), self.state, self.memory, self.control, self.abm_history, self.window,
+                self.run_dwell, self._work, self._outs, self._rows, self.keep_history, self._record_buffer,
+                self.counters, *self._kernel_context())
             self.time = t
             if rows:
-                self.last_output = self._record[rows - 1].copy()
+                last = self._rows[rows - 1] if self.keep_history else self._rows[0]
+                self.last_output[:] = last
                 if self.keep_history:
-                    self._chunks.append(self._record[:rows].copy())
-                for observer in self.observers:
-                    observer(self._record[:rows])
+                    self._chunks.append(self._rows[:rows].copy())
+            if records:
+                self._take_records(self._record_buffer[:records])
             if status == REACHED_END:
                 return
             if status != RECORD_FULL:
                 raise IntegrationError(self._failure_text(status), t, self.state)
 
+    def _take_records(self, records: np.ndarray) -> None:
+        """Keep the new lobe records (all of them with the history; in any case the last 2z - 1, which hold the
+        last completed revolution) and summarise the revolution they complete, if any."""
+        lobes = self.params.lobes
+        if self.keep_history:
+            self._records.append(records.copy())
+        candidates = np.concatenate([self.recent_records, records])
+        self.recent_records = candidates[-(2 * lobes - 1):]        # always holds the last complete revolution
+        groups = revolution_groups(candidates, lobes)
+        if groups and (self.last_revolution is None or groups[-1][-1, 0] != self._last_revolution_lobe):
+            self._last_revolution_lobe = groups[-1][-1, 0]
+            self.last_revolution = summarise_records(groups[-1], self.params.rotor_inertia,
+                                                     self.params.mode_dwell_time, self.gas_reference)
+
+    _last_revolution_lobe = -1.0
+
     def _failure_text(self, status: int) -> str:
         """Why the loop stopped; for a chamber state the table refused, which chamber, its state and why."""
         text = STATUS_TEXT[status]
-        if status == GAS_STATE_INVALID:
-            for name, temperature, density in (("leading", LEADING_TEMPERATURE, LEADING_DENSITY),
-                                               ("trailing", TRAILING_TEMPERATURE, TRAILING_DENSITY)):
-                code = table_status(self.state[temperature], self.state[density], self.gas.properties)
+        if status == GAS_STATE_INVALID and self.gas_reference is not None:
+            table = table_from_arrays(*self.gas.properties)
+            volumes = (self.last_output[OUTPUT_INDEX["leading_volume"]],
+                       self.last_output[OUTPUT_INDEX["trailing_volume"]])
+            for k, (name, temperature, mass) in enumerate((("leading", LEADING_TEMPERATURE, LEADING_MASS),
+                                                           ("trailing", TRAILING_TEMPERATURE, TRAILING_MASS))):
+                temperature_value = self.state[GAS_BLOCK + temperature]
+                density = self.state[GAS_BLOCK + mass] / volumes[k]
+                code = table_status(temperature_value, density, table)
                 if code != 0:
-                    text += "; " + describe_status(code, self.state[temperature], self.state[density],
-                                                   self.gas.properties, fluid=self.gas_reference.fluid,
+                    text += "; " + describe_status(code, temperature_value, density, table,
+                                                   fluid=self.gas_reference.fluid,
                                                    state=f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})")
         return text
+
+    def evaluate(self, t: float, state: np.ndarray, memory: np.ndarray | None = None):
+        """The right-hand side at (t, state) with this run's constants and speed law: (kernel status, dy/dt, output
+        row as a dict). `memory` defaults to the run's current memory (docs/model.md §8.1)."""
+        state = np.asarray(state, dtype=np.float64)
+        if state.shape != self.state.shape:
+            raise ValueError(f"'state' has shape {state.shape}: allowed {self.state.shape} (mechanics.layout)")
+        rates = np.zeros(state.size)
+        out = np.full(OUTPUT_SIZE, np.nan)
+        status = evaluate_state(float(t), state.copy(), (self.memory if memory is None else memory).copy(), out,
+                                rates, *self._kernel_context())
+        return status, rates, dict(zip(OUTPUT_NAMES, out.tolist()))
 
     # results ------------------------------------------------------------------------------------------
     @property
     def outputs(self) -> dict[str, float]:
-        """The output row of the last accepted step (NaN before the first step)."""
+        """The output row of the last accepted step (the initial state's before the first step)."""
         return dict(zip(OUTPUT_NAMES, self.last_output.tolist()))
 
     @property
@@ -211,9 +277,19 @@ class Simulation:
             self._chunks = [np.concatenate(self._chunks)]
         return History(self._chunks[0] if self._chunks else np.empty((0, OUTPUT_SIZE)))
 
+    @property
+    def lobe_records(self) -> np.ndarray:
+        """Every lobe record so far (mechanics.windows layout), or the last 2z - 1 without the history."""
+        if not self.keep_history:
+            return self.recent_records
+        if len(self._records) > 1:
+            self._records = [np.concatenate(self._records)]
+        return self._records[0] if self._records else np.empty((0, RECORD_SIZE))
+
     def clear_history(self) -> None:
-        """Forget recorded steps (the state and the last output are kept)."""
+        """Forget recorded steps and lobe records (the state, the last output and the last revolution are kept)."""
         self._chunks = []
+        self._records = []
 
     @property
     def rotor_angle(self) -> float:
@@ -226,13 +302,17 @@ class Simulation:
     # save / restore ---------------------------------------------------------------------------------------
     def get_state(self) -> SimulationState:
         """A deep copy of everything the continuation depends on."""
-        return SimulationState(self.time, self.state.copy(), self.memory.copy(), self.control.copy(),
-                               self.abm_history.copy(), self.speed_law.copy(), self.last_output.copy(),
-                               self.counters.copy())
+        return SimulationState(self.time, *(np.array(getattr(self, name), copy=True) for name in ARRAY_FIELDS))
 
     def set_state(self, saved: SimulationState) -> None:
         """Continue from a state returned by `get_state` (the history is not rewound)."""
         self.time = saved.time
-        for name in ("state", "memory", "control", "abm_history", "speed_law", "last_output", "counters"):
-            getattr(self, name)[...] = getattr(saved, name)
-
+        for name in ARRAY_FIELDS:
+            if name == "recent_records":
+                self.recent_records = np.array(saved.recent_records, copy=True)
+            else:
+                getattr(self, name)[...] = getattr(saved, name)
+        groups = revolution_groups(self.recent_records, self.params.lobes)
+        self.last_revolution = (summarise_records(groups[-1], self.params.rotor_inertia, self.params.mode_dwell_time,
+                                                  self.gas_reference) if groups else None)
+        self._last_revolution_lobe = groups[-1][-1, 0] if groups else -1.0

@@ -8,7 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from rotary_vane.thermo.kernel import kernel
 
 CONSTANT, LINEAR, CYCLOIDAL = 0, 1, 2
 SHAPES = {"constant": CONSTANT, "linear": LINEAR, "cycloidal": CYCLOIDAL}
@@ -61,7 +61,7 @@ def linear_ramp(rpm: float, duration: float, start_rpm: float = 0.0) -> SpeedLaw
     return SpeedLaw("linear", rpm, duration, start_rpm)
 
 
-@njit(cache=True)
+@kernel
 def rotor_motion(t, law):
     """(theta, omega, theta_ddot) at time t under the speed segment `law` (docs/model.md §3.2).
 
@@ -93,7 +93,7 @@ def rotor_motion(t, law):
     return theta0 + omega0 * duration + 0.5 * change * duration + omega1 * (elapsed - duration), omega1, 0.0
 
 
-@njit(cache=True)
+@kernel
 def ramp_end_time(law):
     """Time at which the ramp ends (an integrator event), or +inf for a constant speed."""
     if law[0] == CONSTANT:
@@ -101,7 +101,7 @@ def ramp_end_time(law):
     return law[1] + law[5]
 
 
-@njit(cache=True)
+@kernel
 def time_of_angle(angle, t_low, t_high, law):
     """Time in [t_low, t_high] at which theta(t) = angle, by bisection (theta is non-decreasing)."""
     for _ in range(100):

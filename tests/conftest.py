@@ -319,26 +319,21 @@ def contact_reference():
 
 
 def evaluate_at(sim, t, vane_state, onset=(0.0,) * 5):
-    """Call the kernel RHS `mechanics.dynamics.evaluate` of a Simulation at time t and vane state
-    (x3, y3, phi3, vx3, vy3, phi_dot3), with the stored approach velocities `onset` (slots c1..c4, tip).
-    The closest-point warm start is 0 (a start at atan2(T) for the offset convention; any start is valid,
-    the Brent safeguard covers the rest). Returns (status, dydt, outputs as a dict)."""
-    from rotary_vane.mechanics.dynamics import evaluate
-    from rotary_vane.mechanics.layout import (MEM_LOBE_START, MEM_ONSET_VELOCITY, MEMORY_SIZE, OUTPUT_NAMES, OUTPUT_SIZE,
-                                  STATE_SIZE)
+    """The kernel RHS of a Simulation (`Simulation.evaluate`) at time t and vane state (x3, y3, phi3, vx3, vy3,
+    phi_dot3), with the stored approach velocities `onset` (slots c1..c4, tip). The closest-point warm start is 0
+    (a start at atan2(T) for the offset convention; any start is valid, the Brent safeguard covers the rest).
+    Returns (status, dydt, outputs as a dict)."""
+    from rotary_vane.mechanics.layout import MEM_LOBE_START, MEM_ONSET_VELOCITY, MEMORY_SIZE
     from rotary_vane.mechanics.speed import rotor_motion
 
-    y = np.zeros(STATE_SIZE)
+    y = sim.state.copy()
     y[:6] = vane_state
     memory = np.zeros(MEMORY_SIZE)
     theta = rotor_motion(t, sim.speed_law)[0]
     lobe = 2 * math.pi / sim.params.lobes
     memory[MEM_LOBE_START] = math.floor(theta / lobe) * lobe
     memory[MEM_ONSET_VELOCITY:MEM_ONSET_VELOCITY + 5] = onset
-    dydt = np.zeros(STATE_SIZE)
-    out = np.full(OUTPUT_SIZE, np.nan)
-    status = evaluate(t, y, sim.machine, sim.speed_law, sim.gas, memory, dydt, out)
-    return status, dydt, dict(zip(OUTPUT_NAMES, out.tolist()))
+    return sim.evaluate(t, y, memory)
 
 
 @pytest.fixture(scope="session")

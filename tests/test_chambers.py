@@ -13,7 +13,8 @@ import pytest
 from scipy import integrate
 
 from rotary_vane.mechanics import CompressorParameters
-from rotary_vane.mechanics.chambers import chamber_volume_rates, chamber_volumes, stator_sectors
+from rotary_vane.mechanics.chamber_geometry import sector_table, stator_sectors
+from rotary_vane.mechanics.dynamics import chamber_geometry_of
 from rotary_vane.mechanics.displacement import displacement
 from rotary_vane.mechanics.geometry import closest_pitch_parameter, law_arguments, lobe_area, stator_point
 from rotary_vane.mechanics.machine import machine_from_parameters
@@ -60,14 +61,22 @@ def vane_path(m, theta0, omega, lift=0.0, lift_rate=0.0, offset=0.0, offset_rate
     return state
 
 
+def geometry(state, m, lobe_start=0.0):
+    """mechanics.dynamics.chamber_geometry_of of a path state (u* is found by the kernel's own search)."""
+    return chamber_geometry_of(state["x"], state["y"], state["phi"], state["vx"], state["vy"], state["phi_dot"],
+                               state["theta"], state["omega"], lobe_start, m, sector_table(m))
+
+
 def volumes(state, m, lobe_start=0.0):
-    return np.array(chamber_volumes(state["x"], state["y"], state["phi"], state["theta"], state["closest"],
-                                    lobe_start, m))
+    """(V_L, V_T) without the dead volume."""
+    result = geometry(state, m, lobe_start)
+    return np.array([result.volume_leading, result.volume_trailing])
 
 
 def rates(state, m):
-    return np.array(chamber_volume_rates(state["x"], state["y"], state["phi"], state["vx"], state["vy"],
-                                         state["phi_dot"], state["theta"], state["omega"], state["closest"], m))
+    """(dV_L/dt, dV_T/dt, gap_L, gap_T)."""
+    result = geometry(state, m)
+    return np.array([result.rate_leading, result.rate_trailing, result.gap_leading, result.gap_trailing])
 
 
 def boundary_cases(state, m):
@@ -416,8 +425,9 @@ def test_stator_sectors_against_direct_quadrature(law, many_lobes, check):
                               end, points=inside if inside.size else None, epsabs=0.0, epsrel=1e-13, limit=200)[0]
 
     whole = sector(lobe)
+    table = sector_table(m)
     for fraction in (-0.01, 0.0, 0.04, 0.25, 0.5, 0.72, 1.0, 1.015):
-        leading, trailing = stator_sectors(fraction * lobe, m)
+        leading, trailing = stator_sectors(fraction * lobe, m, table)
         check("chambers: stator sector vs quadrature", abs(trailing - sector(fraction * lobe)) / whole, 1e-12)
         check("chambers: stator sectors sum to the lobe", abs(leading + trailing - whole) / whole, 1e-12)
     if law != "harmonic_dwell":     # lobe_area's panels ignore the dwell law's jumps of s'' (0.2 % off here)
@@ -462,12 +472,12 @@ def test_mirror_symmetry_about_the_mid_lobe(law, check):
 def test_compiled_functions_match_python():
     """The numba-compiled kernels return what their Python source returns."""
     params, m = setup(5, clearance=0.05e-3)
+    table = sector_table(m)
     for theta in (0.01, 0.4, 1.2):
         state = vane_path(m, theta, OMEGA, 20e-6, 0.1, -10e-6, 0.01, 1e-3, 0.2)(0.0)
-        args = (state["x"], state["y"], state["phi"], state["theta"], state["closest"], 0.0, m)
-        np.testing.assert_allclose(chamber_volumes.py_func(*args), chamber_volumes(*args), rtol=1e-13, atol=0.0)
         args = (state["x"], state["y"], state["phi"], state["vx"], state["vy"], state["phi_dot"], state["theta"],
-                OMEGA, state["closest"], m)
-        np.testing.assert_allclose(chamber_volume_rates.py_func(*args), chamber_volume_rates(*args), rtol=1e-13,
+                OMEGA, 0.0, m, table)
+        np.testing.assert_allclose(chamber_geometry_of.py_func(*args), chamber_geometry_of(*args), rtol=1e-13,
                                    atol=1e-22)
-        np.testing.assert_allclose(stator_sectors.py_func(theta, m), stator_sectors(theta, m), rtol=1e-14)
+        np.testing.assert_allclose(stator_sectors.py_func(theta, m, table), stator_sectors(theta, m, table),
+                                   rtol=1e-14)

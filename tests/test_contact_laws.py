@@ -9,9 +9,11 @@ from scipy import integrate
 from scipy.integrate import solve_ivp
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, elastic_force,
-                               friction_coefficient_effective, hertz_stiffness, normal_force, slot_bottom_contact,
-                               slot_mouth_contact, tip_contact)
+from rotary_vane.mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, slot_bottom_contact,
+                                           slot_mouth_contact, tip_contact)
+from rotary_vane.mechanics.contact_laws import (elastic_force, friction_coefficient_effective, hertz_stiffness,
+                                                normal_force)
+from rotary_vane.mechanics.kinematics import pose_of
 from rotary_vane.mechanics.machine import machine_from_parameters
 
 RPM = 2 * math.pi / 60
@@ -62,7 +64,7 @@ def test_static_force_is_hertz_and_energy_is_its_integral(check, vane, other):
     m = machine_from_parameters(p)
     k = hertz_k(1 / (vane + other), p)
     for delta in (1e-9, 1e-7, 3e-6, 2e-5):
-        elastic, energy = elastic_force(delta, vane, other, m)
+        elastic, energy, _ = elastic_force(delta, vane, other, m)
         check("T5 F(delta, rate 0) vs K delta^1.5, rel.", abs(elastic / (k * delta ** 1.5) - 1), 1e-13)
         for onset in (0.01, 0.3):
             assert normal_force(elastic, 0.0, onset, p.restitution) == elastic
@@ -300,12 +302,23 @@ def pose(theta, radial, lateral, tilt, params, xi_t):
 
 
 def code_regions(g, phi, theta, m):
-    exi = (math.cos(phi), math.sin(phi))
-    er = (math.cos(theta), math.sin(theta))
-    tip = (g[0] + m.tip_centre * exi[0], g[1] + m.tip_centre * exi[1])
-    return ([slot_mouth_contact(1.0, *g, *exi, *er, m), slot_mouth_contact(-1.0, *g, *exi, *er, m),
-             slot_bottom_contact(1.0, *g, *exi, *er, m), slot_bottom_contact(-1.0, *g, *exi, *er, m)],
-            tip_contact(*tip, *exi, 0.0, m))
+    """The detectors' candidates of c1-c4 and the tip contact for a vane pose."""
+    vane = pose_of(g[0], g[1], phi, theta, m)
+    return ([slot_mouth_contact(1.0, vane, m), slot_mouth_contact(-1.0, vane, m),
+             slot_bottom_contact(1.0, vane, m), slot_bottom_contact(-1.0, vane, m)],
+            tip_contact(vane, 0.0, m))
+
+
+def normal(candidate):
+    return np.array([candidate.normal_x, candidate.normal_y])
+
+
+def point(candidate):
+    return np.array([candidate.point_x, candidate.point_y])
+
+
+def contact_angle(tip):
+    return math.atan2(tip.sin_contact_angle, tip.cos_contact_angle)
 
 
 @pytest.mark.parametrize("clearance", [0.0, 0.05e-3, 0.2e-3])
@@ -329,19 +342,20 @@ def test_detection_matches_reference(check, contact_reference, clearance):
         for k, got in enumerate(slots):
             expected = refs[k]
             if expected is None:
-                assert got[0] == -math.inf and got[7] == NO_CANDIDATE
+                assert got.penetration == -math.inf and got.kind == NO_CANDIDATE
                 continue
             if k < 2:
-                assert got[7] == KIND_CODES[expected["kind"]]
+                assert got.kind == KIND_CODES[expected["kind"]]
                 kinds.add(expected["kind"])
-            worst = max(worst, abs(got[0] - expected["delta"]) / 1e-3)
-            assert np.allclose(got[1:3], expected["n"], rtol=0, atol=1e-12)
-            assert np.allclose(got[3:5], expected["P"], rtol=0, atol=1e-15)
-            assert abs(1 / (got[5] + got[6]) / expected["radius"] - 1) < 1e-12
-        worst = max(worst, abs(tip[0] - ref_tip["delta"]) / 1e-3)
-        assert np.allclose(tip[1:3], ref_tip["n"], rtol=0, atol=1e-12)
-        assert np.allclose(tip[3:5], ref_tip["P"], rtol=0, atol=1e-15)
-        assert abs(1 / (tip[5] + tip[6]) / ref_tip["radius"] - 1) < 1e-10
+            worst = max(worst, abs(got.penetration - expected["delta"]) / 1e-3)
+            assert np.allclose(normal(got), expected["n"], rtol=0, atol=1e-12)
+            assert np.allclose(point(got), expected["P"], rtol=0, atol=1e-15)
+            assert abs(1 / (got.vane_curvature + got.other_curvature) / expected["radius"] - 1) < 1e-12
+        candidate = tip.candidate
+        worst = max(worst, abs(candidate.penetration - ref_tip["delta"]) / 1e-3)
+        assert np.allclose(normal(candidate), ref_tip["n"], rtol=0, atol=1e-12)
+        assert np.allclose(point(candidate), ref_tip["P"], rtol=0, atol=1e-15)
+        assert abs(1 / (candidate.vane_curvature + candidate.other_curvature) / ref_tip["radius"] - 1) < 1e-10
     check("detection delta vs docs/model.md §4 reference [m] / 1 mm", worst, 1e-12)
     assert kinds == {"A", "B", "C"}
 
@@ -376,13 +390,14 @@ def test_mirror_symmetry_of_slot_regions(check, radial, lateral, tilt, clearance
         mirrored, _ = code_regions(g_mirror, phi_mirror, theta, m)
         for k, partner in ((0, 1), (1, 0), (2, 3), (3, 2)):
             a, b = slots[k], mirrored[partner]
-            if a[0] == -math.inf:
-                assert b[0] == -math.inf
+            if a.penetration == -math.inf:
+                assert b.penetration == -math.inf
                 continue
-            check("T7 slot |delta - delta_mirror| [m] / 1 mm", abs(a[0] - b[0]) / 1e-3, 1e-12)
-            assert np.allclose(reflect(a[1:3], theta), b[1:3], rtol=0, atol=1e-12)
-            assert np.allclose(reflect(a[3:5], theta), b[3:5], rtol=0, atol=1e-15)
-            assert a[5:] == pytest.approx(b[5:], rel=1e-12, abs=1e-12)
+            check("T7 slot |delta - delta_mirror| [m] / 1 mm", abs(a.penetration - b.penetration) / 1e-3, 1e-12)
+            assert np.allclose(reflect(normal(a), theta), normal(b), rtol=0, atol=1e-12)
+            assert np.allclose(reflect(point(a), theta), point(b), rtol=0, atol=1e-15)
+            assert (a.vane_curvature, a.other_curvature, a.radius, a.kind) == pytest.approx(
+                (b.vane_curvature, b.other_curvature, b.radius, b.kind), rel=1e-12, abs=1e-12)
 
 
 @pytest.mark.parametrize("lobes", [3, 5])
@@ -401,13 +416,13 @@ def test_mirror_symmetry_of_tip_regions(check, reference, lobes, clearance):
             g, phi = pose(theta, s + clearance + radial, lateral, tilt, p, m.tip_centre)
             _, tip = code_regions(g, phi, theta, m)
             _, tip_mirror = code_regions(reflect(g, theta), 2 * theta - phi, theta, m)
-            check("T7 tip |delta - delta_mirror| [m] / 1 mm", abs(tip[0] - tip_mirror[0]) / 1e-3, 1e-12)
-            psi = math.atan2(tip[8], tip[9]) if len(tip) > 10 else tip[8]
-            psi_mirror = math.atan2(tip_mirror[8], tip_mirror[9]) if len(tip_mirror) > 10 else tip_mirror[8]
+            a, b = tip.candidate, tip_mirror.candidate
+            check("T7 tip |delta - delta_mirror| [m] / 1 mm", abs(a.penetration - b.penetration) / 1e-3, 1e-12)
+            psi, psi_mirror = contact_angle(tip), contact_angle(tip_mirror)
             check("T7 tip |psi_c + psi_c,mirror| [rad]", abs(psi + psi_mirror), 1e-12)
-            assert np.allclose(reflect(tip[1:3], theta), tip_mirror[1:3], rtol=0, atol=1e-12)
-            assert np.allclose(reflect(tip[3:5], theta), tip_mirror[3:5], rtol=0, atol=1e-15)
-            assert abs(tip[6] - tip_mirror[6]) <= 1e-9 * abs(tip[6]) + 1e-9
+            assert np.allclose(reflect(normal(a), theta), normal(b), rtol=0, atol=1e-12)
+            assert np.allclose(reflect(point(a), theta), point(b), rtol=0, atol=1e-15)
+            assert abs(a.other_curvature - b.other_curvature) <= 1e-9 * abs(a.other_curvature) + 1e-9
             if abs(psi) > 1e-9:   # region index swaps: c5 (psi > 0) <-> c6 (psi < 0)
                 assert (psi > 0) != (psi_mirror > 0)
 
@@ -428,10 +443,10 @@ def test_centred_vane_has_half_clearance_in_every_slot_region(check, clearance):
             g, phi = pose(theta, radial, 0.0, 0.0, p, m.tip_centre)
             slots, _ = code_regions(g, phi, theta, m)
             for k in range(4):
-                delta = slots[k][0]
-                if k >= 2 or slots[k][7] in (EDGE_ON_FACE, TIP_ON_WALL):
+                delta = slots[k].penetration
+                if k >= 2 or slots[k].kind in (EDGE_ON_FACE, TIP_ON_WALL):
                     check("T8 |delta_1..4 + c_R/2| [m]", abs(delta + clearance / 2), 1e-15)
-                    seen.add(int(slots[k][7]) if k < 2 else "corner")
+                    seen.add(int(slots[k].kind) if k < 2 else "corner")
     assert {EDGE_ON_FACE, TIP_ON_WALL, "corner"} <= seen
 
 
@@ -449,7 +464,7 @@ def test_tip_on_nominal_path_has_stator_gap(check, reference, lobes, clearance):
         for offset, tilt in ((0.0, 0.0), (0.0, rng.uniform(-5e-3, 5e-3)), (rng.uniform(-0.3e-3, 0.3e-3), 2e-3)):
             tip = ref.point(theta) + offset * ref.normal(theta)
             phi = theta + tilt
-            exi = (math.cos(phi), math.sin(phi))
-            result = tip_contact(*tip, *exi, 0.0, m)
-            worst = max(worst, abs(result[0] - (offset - clearance)))
+            g = tip - m.tip_centre * np.array([math.cos(phi), math.sin(phi)])
+            result = tip_contact(pose_of(g[0], g[1], phi, theta, m), 0.0, m)
+            worst = max(worst, abs(result.candidate.penetration - (offset - clearance)))
     check("T8 |delta_S - (g - c_S)| [m]", worst, 1e-15)

@@ -9,7 +9,7 @@ import pytest
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp
 from rotary_vane.mechanics.displacement import displacement
 from rotary_vane.mechanics.geometry import law_arguments
-from rotary_vane.mechanics.layout import REAL_GAS_OUTPUT_NAMES
+from rotary_vane.mechanics.outputs import REAL_GAS_COLUMNS
 from rotary_vane.mechanics.performance import lobes, revolutions
 
 CLEARANCES = (0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3)
@@ -165,7 +165,7 @@ def test_start_up(clearance):
     assert simulation.time == 1.2
     penetrations = [f"penetration_{k}" for k in range(1, 7)] + [f"penetration_rate_{k}" for k in range(1, 7)]
     for name in h.names:
-        if name not in penetrations and name not in REAL_GAS_OUTPUT_NAMES:   # NaN: not applicable/modelled
+        if name not in penetrations and name not in REAL_GAS_COLUMNS:   # NaN: not applicable/modelled
             assert np.all(np.isfinite(h[name])), name
     for region in range(1, 7):
         assert np.nanmax(h[f"penetration_{region}"]) < 50e-6

@@ -520,7 +520,7 @@ def test_closest_pitch_frame_against_brute_force(check, reference):
     brute = brute_force_closest(reference, lobes, targets, polish=True)
     for (tx, ty), u_ref in zip(targets, brute):
         for u_start in (math.atan2(ty, tx), fallback_start(ref, tx, ty)):
-            u, cx, cy, nx, ny, kappa = geometry.closest_pitch_frame(tx, ty, u_start, *args)
+            u, cx, cy, nx, ny, _, kappa = geometry.closest_pitch_frame(tx, ty, u_start, *args)
             check("T1b closest_pitch_frame |C(u*) - C(u_brute, polished)| [m]", point_error(reference, lobes, u, u_ref),
                   1e-12)
             assert np.allclose((cx, cy), ref.point(u), rtol=0, atol=1e-15)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, linear_ramp
-from rotary_vane.mechanics.dynamics import reported_kinematics
+from rotary_vane.mechanics.kinematics import pose_of, reported_kinematics
+from rotary_vane.mechanics.machine import machine_from_parameters
 from rotary_vane.mechanics.speed import rotor_motion
 
 RPM = 2 * math.pi / 60
-XI_G = -7.209e-3              # docs/model.md §2.1 default CG position (the transforms hold for any value)
 
 
 def harmonic(theta, stroke, lobes):
@@ -86,14 +86,17 @@ def nominal_motion(theta, omega, theta_ddot, stroke, lobes, base_radius, xi_g):
 
 
 def reported_along(times, shape, lobes, rpm=1500.0, reference=None, theta0=0.02):
+    """The kernel's reported kinematics of the exact nominal motion (untilted vane, phi = theta, the CG at
+    xi_G = -xi_T behind the tip centre) against the closed forms."""
     p = CompressorParameters(lobes=lobes)
+    m = machine_from_parameters(p)
     got, expected = [], []
     for t in times:
         theta, omega, theta_ddot = reference.speed_law(t, shape, rpm * RPM, 0.4, theta0)
-        (tip, v_tip, a_tip), (_, v_cg, a_cg), nominal = nominal_motion(theta, omega, theta_ddot, p.stroke, lobes,
-                                                                       p.base_radius, XI_G)
-        got.append(reported_kinematics(*tip, *v_tip, *a_tip, *v_cg, *a_cg, theta, omega, theta_ddot,
-                                       p.base_radius))
+        _, (cg, v_cg, a_cg), nominal = nominal_motion(theta, omega, theta_ddot, p.stroke, lobes, p.base_radius,
+                                                      -m.tip_centre)
+        vane = pose_of(*cg, theta, theta, m, *v_cg, omega, omega, theta_ddot)
+        got.append(reported_kinematics(vane, *a_cg, theta_ddot, m))
         expected.append(nominal)
     return np.array(got), np.array(expected)
 
@@ -126,6 +129,7 @@ def test_reported_kinematics_are_time_derivatives(check, reference):
     """Off the nominal path (lateral and radial wobble of T, theta_ddot != 0): v_r and a_r are the first and second
     time derivatives of s_r = T.e_r(theta) - R0 (5-point central differences along the trajectory)."""
     p = CompressorParameters()
+    m = machine_from_parameters(p)
     omega_ss = 1500 * RPM
 
     def motion(t):
@@ -142,10 +146,11 @@ def test_reported_kinematics_are_time_derivatives(check, reference):
         return v[2], first, second
 
     def reported(t, step=2e-6):
+        """The kernel's s_r, v_r, a_r of a vane translating with its tip centre T (phi = 0, no rotation)."""
         tip, v_tip, a_tip = derivatives(lambda x: motion(x)[0], t, step)
         theta, omega, theta_ddot = motion(t)[1]
-        return reported_kinematics(*tip, *v_tip, *a_tip, *v_tip, *a_tip, theta, omega, theta_ddot,
-                                   p.base_radius)
+        vane = pose_of(tip[0] - m.tip_centre, tip[1], 0.0, theta, m, *v_tip, 0.0, omega, theta_ddot)
+        return reported_kinematics(vane, *a_tip, 0.0, m)
 
     worst_v = worst_a = 0.0
     for t in np.linspace(0.05, 0.35, 25):

@@ -139,34 +139,54 @@ def test_start_up_ramp_end_is_an_event():
     assert sim.rotor_speed == pytest.approx(1500.0 * RPM, rel=1e-14)
 
 
-def test_revolution_monitor_matches_the_history():
-    """The FMU's running per-revolution figures equal the ones computed afterwards from the full history, also
-    when the run is advanced in small pieces (revolution boundaries fall inside the pieces)."""
-    from rotary_vane.mechanics.performance import RevolutionMonitor
+def history_revolution(simulation, index):
+    """Per-revolution figures computed independently of the time loop's accumulators, from the recorded rows:
+    work differences between the rows at consecutive multiples of 2 pi, the largest normal force of the rows in
+    between, and the dwell of each mode (each step's length to the mode at its end). The initial row (t = 0, on a
+    boundary) precedes the recorded steps."""
+    from rotary_vane.mechanics.simulation import History
+    h = History(np.vstack([simulation.initial_output, simulation.history.rows]))
+    angle, time = h["rotor_angle"], h["time"]
+    boundaries = np.flatnonzero(np.abs(angle / (2 * math.pi) - np.round(angle / (2 * math.pi))) < 1e-9)
+    first, last = boundaries[index], boundaries[index + 1]
+    duration = time[last] - time[first]
+    window = slice(first, last + 1)
+    dwell = np.zeros(64)
+    np.add.at(dwell, h["contact_mode"][first + 1:last + 1].astype(int), np.diff(time[window]))
+    return dict(start_time=time[first], input_power=(h["work_in"][last] - h["work_in"][first]) / duration,
+                max_normal_force=tuple(float(np.max(h[f"normal_force_{k}"][window])) for k in range(1, 7)),
+                distinct_modes=tuple(int(mask) for mask in np.flatnonzero(dwell >= simulation.params.mode_dwell_time)))
+
+
+def test_loop_summaries_match_the_history():
+    """The per-revolution figures the time loop accumulates (and an FMU reports) equal the ones computed afterwards
+    from the full history, also when the run is advanced in small pieces (revolution boundaries fall inside the
+    pieces), and the run-long dwell covers the whole run from the initial row at t = 0."""
     params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
-    monitor = RevolutionMonitor(params)
-    sim = Simulation(params, observers=[monitor])
+    sim = Simulation(params, initial_angle=0.0)
     for end in np.arange(1, 1001) * 1.3e-4:
         sim.advance(float(end), speed_rpm=1500.0)
-    expected = revolutions(sim)[-1]
-    assert monitor.last.start_time == expected.start_time
-    assert monitor.last.input_power == pytest.approx(expected.input_power, rel=1e-12)
-    assert monitor.last.max_normal_force == expected.max_normal_force
-    assert monitor.last.distinct_modes == expected.distinct_modes
-    assert monitor.run_dwell.sum() == pytest.approx(sim.time, rel=1e-12)    # from the initial row at t = 0
+    summaries = revolutions(sim)
+    assert len(summaries) == 3
+    for index, summary in enumerate(summaries):
+        expected = history_revolution(sim, index)
+        assert summary.start_time == expected["start_time"]
+        assert summary.input_power == pytest.approx(expected["input_power"], rel=1e-12)
+        assert summary.max_normal_force == expected["max_normal_force"]
+        assert summary.distinct_modes == expected["distinct_modes"]
+    assert sim.last_revolution.start_time == summaries[-1].start_time
+    assert sim.run_dwell.sum() == pytest.approx(sim.time, rel=1e-12)
 
 
-def test_revolution_monitor_reports_the_first_revolution_from_a_boundary_start():
+def test_the_first_revolution_is_reported_from_a_boundary_start():
     """A run that starts on a revolution boundary (theta0 = 0, as the FMU does by default) has its first
-    revolution [0, 2 pi] summarised as soon as it completes: the monitor receives the initial state's row."""
-    from rotary_vane.mechanics.performance import RevolutionMonitor
+    revolution [0, 2 pi] summarised as soon as it completes, also without keeping the history."""
     params = CompressorParameters()
-    monitor = RevolutionMonitor(params)
-    sim = Simulation(params, initial_angle=0.0, keep_history=False, observers=[monitor])
+    sim = Simulation(params, initial_angle=0.0, keep_history=False)
     sim.advance(1.5 * 60.0 / 1500.0)
-    assert monitor.last is not None
-    assert monitor.last.start_time == 0.0
-    assert monitor.last.end_time == pytest.approx(60.0 / 1500.0, rel=1e-12)
+    assert sim.last_revolution is not None
+    assert sim.last_revolution.start_time == 0.0
+    assert sim.last_revolution.end_time == pytest.approx(60.0 / 1500.0, rel=1e-12)
 
 
 def test_integration_error_survives_pickling():

@@ -5,13 +5,13 @@ paths; the fluid properties (p, h, c_v, (dp/dT)_rho) are evaluated by the caller
 """
 import math
 
-from numba import njit
 
+from .kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
 from .property_table import table_properties
 
 
-@njit(cache=True)
+@kernel
 def chamber_derivatives(temperature, density, volume, volume_rate, mass_in, enthalpy_in, mass_out, enthalpy,
                         heat_capacity_v, pressure_temperature_derivative, heat_rate):
     """(dT/dt, drho/dt) of one chamber (docs/model.md §7.3, PDSim's form):
@@ -35,7 +35,7 @@ def chamber_derivatives(temperature, density, volume, volume_rate, mass_in, enth
 LINEAR_FLOW_BAND = 2e-3      # relative pressure difference below which a path's flow is linear in it
 
 
-@njit(cache=True)
+@kernel
 def signed_nozzle_flow(discharge_coefficient, area, pressure_a, temperature_a, pressure_b, temperature_b,
                        heat_capacity_ratio, gas_constant):
     """Mass flow [kg/s] from side a to side b through an isentropic nozzle (docs/model.md §7.4); negative when the gas
@@ -61,7 +61,7 @@ def signed_nozzle_flow(discharge_coefficient, area, pressure_a, temperature_a, p
     return flow if forward else -flow
 
 
-@njit(cache=True)
+@kernel
 def port_coverage(vane_phase, port_start, port_end):
     """Fraction of a port spanning lobe phases [port_start, port_end] that lies ahead of the vane (in the leading
     chamber) when the vane is at `vane_phase`; the rest lies behind it (trailing chamber). Linear in the phase."""
@@ -72,7 +72,7 @@ def port_coverage(vane_phase, port_start, port_end):
     return (port_end - vane_phase) / (port_end - port_start)
 
 
-@njit(cache=True)
+@kernel
 def internal_energy_temperature(target_energy, density, temperature_guess, table):
     """Temperature at which the specific internal energy u = h - p/rho equals `target_energy` at `density`
     (Newton on (du/dT)_rho = c_v with the property table); NaN if the table refuses a state on the way."""

@@ -2,10 +2,10 @@
 
 import math
 
-import numba
+from .kernel import kernel
 
 
-@numba.njit(cache=True)
+@kernel
 def isentropic_nozzle_mass_flow(
     discharge_coefficient,
     area,

@@ -7,9 +7,9 @@ model this is the thin-vane volume of docs/model.md §6.5. All quantities are SI
 
 import math
 
-import numba
 import numpy as np
 
+from .kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
 
 
@@ -92,7 +92,7 @@ def polytropic_pressure_table(phase, volume, suction_pressure, discharge_pressur
                     compressed).astype(np.float64)
 
 
-@numba.njit(cache=True)
+@kernel(allocates=True)
 def _ideal_gas_kernel(phase, volume, volume_derivative, time_step, angular_speed,
                       suction_pressure, suction_temperature, discharge_pressure,
                       suction_close_phase, leak_area, leak_coefficient,

@@ -58,9 +58,9 @@ import warnings
 from pathlib import Path
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
+from .kernel import kernel
 from .compile_cache import CACHE_ENVIRONMENT_VARIABLE
 from .fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point, coolprop
 
@@ -118,7 +118,27 @@ class PropertyTable(NamedTuple):
 # ----------------------------------------------------------------------------------------------------------
 # numba kernels
 
-@numba.njit(cache=True)
+TABLE_SCALARS = ("temperature_min", "temperature_max", "inverse_temperature_step", "log_density_min",
+                 "log_density_max", "inverse_log_density_step", "inverse_dome_step", "superheat_margin",
+                 "critical_temperature")
+
+
+def table_arrays(table: PropertyTable) -> tuple:
+    """The table as plain arrays (scalars, nodes, dome limit, accurate cells, ideal-gas exponent): what the time
+    loop takes across the Python -> numba boundary, where a named tuple costs microseconds per call to unbox."""
+    return (np.array([getattr(table, name) for name in TABLE_SCALARS]), table.nodes, table.dome_log_density_limit,
+            table.accurate_cell, table.ideal_gas_exponent)
+
+
+@kernel(allocates=True)
+def table_from_arrays(scalars, nodes, dome_log_density_limit, accurate_cell, ideal_gas_exponent):
+    """The PropertyTable of `table_arrays`' output, inside compiled code."""
+    return PropertyTable(scalars[0], scalars[1], scalars[2], scalars[3], scalars[4], scalars[5], nodes, scalars[6],
+                         dome_log_density_limit, accurate_cell, ideal_gas_exponent, scalars[7], scalars[8])
+
+
+
+@kernel
 def _locate(temperature, density, table):
     """(status, i, j, t, s): the cell (i, j) holding (T, ln rho) and the local coordinates t, s in [0, 1]."""
     nodes = table.nodes
@@ -146,9 +166,10 @@ def _locate(temperature, density, table):
     return STATUS_OK, i, j, u - i, v - j
 
 
-@numba.njit(cache=True)
+@kernel
 def _interpolate(nodes, i, j, t, s):
-    """Bicubic Hermite value of the four properties in cell (i, j) at local coordinates (t, s)."""
+    """Bicubic Hermite value of the four properties in cell (i, j) at local coordinates (t, s), and the pressure's
+    derivative with respect to s (the local ln rho coordinate)."""
     ht0 = (1.0 + 2.0 * t) * (1.0 - t) * (1.0 - t)    # value weights H0, H1 and slope weights G0, G1 in t, s
     ht1 = t * t * (3.0 - 2.0 * t)
     gt0 = t * (1.0 - t) * (1.0 - t)
@@ -157,7 +178,10 @@ def _interpolate(nodes, i, j, t, s):
     hs1 = s * s * (3.0 - 2.0 * s)
     gs0 = s * (1.0 - s) * (1.0 - s)
     gs1 = s * s * (s - 1.0)
-    pressure = enthalpy = heat_capacity = pressure_derivative = 0.0
+    dhs1 = 6.0 * s * (1.0 - s)                        # d/ds of H1 (and -d/ds of H0), G0, G1
+    dgs0 = (1.0 - s) * (1.0 - 3.0 * s)
+    dgs1 = s * (3.0 * s - 2.0)
+    pressure = enthalpy = heat_capacity = pressure_derivative = pressure_slope = 0.0
     for corner in range(4):
         a = corner >> 1
         b = corner & 1
@@ -165,6 +189,8 @@ def _interpolate(nodes, i, j, t, s):
         slope_t = gt1 if a else gt0
         weight_s = hs1 if b else hs0
         slope_s = gs1 if b else gs0
+        d_weight_s = dhs1 if b else -dhs1
+        d_slope_s = dgs1 if b else dgs0
         w0 = weight_t * weight_s
         w1 = slope_t * weight_s
         w2 = weight_t * slope_s
@@ -178,30 +204,50 @@ def _interpolate(nodes, i, j, t, s):
                           + w3 * nodes[k, m, 2, 3])
         pressure_derivative += (w0 * nodes[k, m, 3, 0] + w1 * nodes[k, m, 3, 1] + w2 * nodes[k, m, 3, 2]
                                 + w3 * nodes[k, m, 3, 3])
-    return pressure, enthalpy, heat_capacity, pressure_derivative
+        pressure_slope += (weight_t * d_weight_s * nodes[k, m, 0, 0] + slope_t * d_weight_s * nodes[k, m, 0, 1]
+                           + weight_t * d_slope_s * nodes[k, m, 0, 2] + slope_t * d_slope_s * nodes[k, m, 0, 3])
+    return pressure, enthalpy, heat_capacity, pressure_derivative, pressure_slope
 
 
-@numba.njit(cache=True)
+@kernel
 def table_status(temperature, density, table):
     """Status code of (T [K], rho [kg/m^3]) in `table` (0: inside the envelope, outside the dome's margin, in a
     cell that passed its accuracy check)."""
     return _locate(temperature, density, table)[0]
 
 
-@numba.njit(cache=True)
+@kernel
 def table_properties(temperature, density, table):
     """(p [Pa], h [J/kg], c_v [J/(kg K)], (dp/dT)_rho [Pa/K], status) at (T [K], rho [kg/m^3]).
 
     Bicubic Hermite interpolation in (T, ln rho) (module docstring); all four values are NaN if status != 0.
     """
+    state = table_state(temperature, density, table)
+    return state.pressure, state.enthalpy, state.heat_capacity_v, state.pressure_temperature_derivative, state.status
+
+
+class FluidState(NamedTuple):
+    """What the chamber equations read at (T, rho) (docs/model.md §7.3); NaN values if status != 0."""
+    pressure: float                          # Pa
+    enthalpy: float                          # J/kg
+    heat_capacity_v: float                   # J/(kg K)
+    pressure_temperature_derivative: float   # (dp/dT)_rho, Pa/K
+    pressure_density_derivative: float       # (dp/drho)_T, Pa m^3/kg (derivative of the interpolant)
+    status: int
+
+
+@kernel
+def table_state(temperature, density, table):
+    """The FluidState at (T [K], rho [kg/m^3]) by bicubic Hermite interpolation in (T, ln rho)."""
     status, i, j, t, s = _locate(temperature, density, table)
-    pressure, enthalpy, heat_capacity, pressure_derivative = _interpolate(table.nodes, i, j, t, s)
+    pressure, enthalpy, heat_capacity, pressure_derivative, slope = _interpolate(table.nodes, i, j, t, s)
+    density_derivative = slope * table.inverse_log_density_step / density
     if status != STATUS_OK:       # one exit: an early return costs about twice the whole evaluation in numba
-        pressure = enthalpy = heat_capacity = pressure_derivative = np.nan
-    return pressure, enthalpy, heat_capacity, pressure_derivative, status
+        pressure = enthalpy = heat_capacity = pressure_derivative = density_derivative = np.nan
+    return FluidState(pressure, enthalpy, heat_capacity, pressure_derivative, density_derivative, status)
 
 
-@numba.njit(cache=True)
+@kernel
 def table_ideal_gas_exponent(temperature, table):
     """k = c_p0/(c_p0 - R) at T (docs/model.md §7.4), linear in T between the table's nodes; NaN outside its T range."""
     if not (table.temperature_min <= temperature <= table.temperature_max):
@@ -212,13 +258,13 @@ def table_ideal_gas_exponent(temperature, table):
     return exponents[i] + (u - i) * (exponents[i + 1] - exponents[i])
 
 
-@numba.njit(cache=True)
+@kernel(allocates=True)
 def _cell_centre_values(nodes):
     """The interpolated properties at the centre of every cell, (n_T - 1, n_x - 1, 4)."""
     values = np.empty((nodes.shape[0] - 1, nodes.shape[1] - 1, 4))
     for i in range(nodes.shape[0] - 1):
         for j in range(nodes.shape[1] - 1):
-            values[i, j] = _interpolate(nodes, i, j, 0.5, 0.5)
+            values[i, j] = _interpolate(nodes, i, j, 0.5, 0.5)[:4]
     return values
 
 

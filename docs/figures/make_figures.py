@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp  # noqa: E402
 from rotary_vane.mechanics.displacement import displacement  # noqa: E402
 from rotary_vane.mechanics.geometry import law_arguments, pitch_frame  # noqa: E402
-from rotary_vane.mechanics.performance import boundary_rows, revolutions  # noqa: E402
+from rotary_vane.mechanics.performance import revolutions  # noqa: E402
 from rotary_vane.mechanics.pressure_source import leading_pressure_table  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
@@ -164,9 +164,9 @@ def _last_revolution(params, revolutions_settle=3):
     period = 2 * math.pi / (RPM * math.pi / 30)
     sim.advance((revolutions_settle + 1.05) * period)
     history = sim.history
-    rows = boundary_rows(history, 2 * math.pi)
-    first, last = rows[-2], rows[-1]
-    return sim, history, slice(first, last + 1)
+    last = revolutions(sim)[-1]
+    rows = np.flatnonzero((history["time"] >= last.start_time) & (history["time"] <= last.end_time))
+    return sim, history, slice(rows[0], rows[-1] + 1)
 
 
 def pressure_figure():
