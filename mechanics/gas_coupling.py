@@ -28,7 +28,7 @@ class GasCoupling(NamedTuple):
     """The gas arguments of the time loop and what the figures need."""
     pressure_table: np.ndarray            # p_L(phase) over a lobe (Level 0/0.5), else unused
     properties: tuple                     # thermo.property_table.table_arrays of the fluid (real gas) or a placeholder
-    chambers: np.recarray                 # thermo.chamber_model constants
+    chambers: np.ndarray                  # thermo.chamber_model constants (one-row structured array)
     suction_density: float                # kg/m^3
     reference: object                     # thermo.gas_reference.GasReference (real gas) or None
 

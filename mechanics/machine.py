@@ -70,9 +70,10 @@ MACHINE_FIELDS = (
 MACHINE_DTYPE = np.dtype([(name, np.float64) for name, _ in MACHINE_FIELDS])
 
 
-def machine_array(p: CompressorParameters) -> np.recarray:
-    """The kernel constants of validated parameters as a one-row record array (docs/model.md §2.1, §2.2, §5.2,
-    §8.2): numba reads its fields by name (`m = machine[0]; m.stroke`) and passes it at the cost of an array."""
+def machine_array(p: CompressorParameters) -> np.ndarray:
+    """The kernel constants of validated parameters as a one-row structured array (docs/model.md §2.1, §2.2, §5.2,
+    §8.2): numba reads its fields by name (`m = machine[0]; m.stroke`) and passes it at the cost of an array (a
+    numpy recarray costs five times more to pass, so the kernels get the plain array)."""
     vane = vane_mass_properties(p.vane_thickness, p.vane_length, p.axial_length, p.vane_density)
     tip_centre = -vane.centre_of_mass
     scale = p.tolerance_scale
@@ -98,17 +99,23 @@ def machine_array(p: CompressorParameters) -> np.recarray:
         atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
         min_step=p.min_step, max_step=p.max_step, max_onset_penetration=p.max_onset_penetration,
         stator_lobe_integral=math.nan)
-    machine = np.rec.array(np.zeros(1, dtype=MACHINE_DTYPE))
+    machine = np.zeros(1, dtype=MACHINE_DTYPE)
     for name, value in values.items():
         machine[name] = value
-    machine["stator_lobe_integral"] = 2.0 * sector_integral(math.pi / p.lobes, sector_table(machine[0]))
+    machine["stator_lobe_integral"] = 2.0 * sector_integral(math.pi / p.lobes, sector_table(record_of(machine)))
     return machine
+
+
+def record_of(array: np.ndarray):
+    """Row 0 of a one-row structured array as a record whose fields read as attributes in Python (`m.stroke`) as in
+    numba; a view, not a copy."""
+    return array.view(np.recarray)[0]
 
 
 def machine_from_parameters(p: CompressorParameters):
     """The kernel constants as one record (fields by name, in Python and in numba), e.g. for calling a kernel
     function directly; the time loop takes `machine_array`."""
-    return machine_array(p)[0]
+    return record_of(machine_array(p))
 
 
 PRESSURE_MODEL_CODES = {name: i for i, name in enumerate(PRESSURE_MODELS)}

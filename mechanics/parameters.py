@@ -187,12 +187,13 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
                 _reject(name, value, allowed)
             continue
         if meta.get("fluid"):
-            if not isinstance(value, str):
+            if not isinstance(value, str) or not value:
                 _reject(name, value, allowed)
-            try:
-                Fluid(value)
-            except ValueError as error:
-                raise ValueError(f"parameter '{name}' = {value!r} is not valid: {error}") from None
+            if params.pressure_model == "real_gas":       # only a real-gas run asks CoolProp (importing it: ~2 s)
+                try:
+                    Fluid(value)
+                except ValueError as error:
+                    raise ValueError(f"parameter '{name}' = {value!r} is not valid: {error}") from None
             continue
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             _reject(name, value, allowed)

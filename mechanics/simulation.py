@@ -25,11 +25,11 @@ from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_ST
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
                      MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
                      VY, WORK_IN, X, Y)
-from .machine import machine_array
+from .machine import machine_array, record_of
 from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
 from .performance import WindowSummary, revolution_groups, summarise_records
-from .speed import SpeedLaw, check_speed, constant_speed, rotor_motion
+from .speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed, rotor_motion
 from .windows import MODE_KEYS, RECORD_SIZE, new_window
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
@@ -100,7 +100,7 @@ class Simulation:
         self.gas = gas_coupling(p, operating_speed)
         self.gas_reference = self.gas.reference
         machine = machine_array(p)
-        self.machine = machine[0]                  # the constants by name (mechanics.machine)
+        self.machine = record_of(machine)          # the constants by name (mechanics.machine)
         sectors = sector_table(self.machine)
         self._context = (machine, None, self.gas.pressure_table, self.gas.chambers, *self.gas.properties,
                          sectors.segments, sectors.nodes)
@@ -177,15 +177,16 @@ class Simulation:
 
     def _speed_for_advance(self, end_time: float, speed_rpm: float, interpolate: bool) -> None:
         omega_target = check_speed("speed_rpm", speed_rpm)
-        theta, omega, _ = rotor_motion(self.time, self.speed_law)
+        law = self.speed_law
+        theta, omega, _ = rotor_motion(self.time, law)
         if interpolate and end_time > self.time:
-            law = np.array([1.0, self.time, theta, omega, omega_target, end_time - self.time])
+            segment = (LINEAR, self.time, theta, omega, omega_target, end_time - self.time)
         else:
-            law = np.array([0.0, self.time, theta, omega_target, omega_target, 0.0])
+            segment = (CONSTANT, self.time, theta, omega_target, omega_target, 0.0)
             # a held speed jumps: the motor delivers the rotor's kinetic energy 1/2 J2 (w2^2 - w1^2) at once
             self.state[WORK_IN] += 0.5 * self.params.rotor_inertia * (omega_target ** 2 - omega ** 2)
-        if not np.array_equal(law[[0, 3, 4]], self.speed_law[[0, 3, 4]]) or interpolate:
-            self.speed_law = law
+        if interpolate or (segment[0], segment[3], segment[4]) != (law[0], law[3], law[4]):
+            law[:] = segment                       # in place: the kernel's argument stays the same array
             self.control[CONTROL_HISTORY] = 0
 
     # time loop ----------------------------------------------------------------------------------------

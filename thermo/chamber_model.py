@@ -48,13 +48,14 @@ CONSTANT_FIELDS = (
 CONSTANTS_DTYPE = np.dtype([(name, np.float64) for name in CONSTANT_FIELDS])
 
 
-def chamber_constants(**values) -> np.recarray:
-    """The model's constants as a one-row record array (every CONSTANT_FIELDS entry must be given, SI units)."""
+def chamber_constants(**values) -> np.ndarray:
+    """The model's constants as a one-row structured array (every CONSTANT_FIELDS entry must be given, SI units);
+    numba reads its fields by name."""
     missing = set(CONSTANT_FIELDS) - set(values)
     unknown = set(values) - set(CONSTANT_FIELDS)
     if missing or unknown:
         raise ValueError(f"chamber constants: missing {sorted(missing)}, unknown {sorted(unknown)}")
-    constants = np.rec.array(np.zeros(1, dtype=CONSTANTS_DTYPE))
+    constants = np.zeros(1, dtype=CONSTANTS_DTYPE)
     for name, value in values.items():
         constants[name] = float(value)
     return constants

@@ -1,0 +1,46 @@
+"""Every output is declared once (mechanics.outputs): the kernel's column layout, the FMU variables, the
+periodic-map channels and the documentation tables all follow from the declarations, and every declared figure is
+something the per-revolution summary defines."""
+import dataclasses
+
+from rotary_vane.mechanics import outputs
+from rotary_vane.mechanics.outputs import (FIGURES, STEP_OUTPUTS, Figure, Output, fmu_outputs, index_layout,
+                                           markdown_table)
+from rotary_vane.mechanics.performance import WindowSummary
+from rotary_vane.mechanics.regions import REGION_COUNT, REGION_LABELS, REGIONS
+
+
+def test_adding_an_output_is_one_declaration():
+    """A new step output and a new figure, declared once, appear in the column layout (after the existing columns),
+    in the FMU outputs with their unit and description, and in the output table of the docs."""
+    step = Output("vane_spin_energy", "J", "rotational kinetic energy of the vane", fmu="vane_spin_energy")
+    figure = Figure("spin_power", "W", "mean spin power", fmu="spin_power")
+    declared = (*STEP_OUTPUTS, step)
+    layout = index_layout(declared)
+    assert layout.vane_spin_energy == outputs.OUTPUT_SIZE
+    assert layout._fields[:-1] == index_layout()._fields
+    made = {o.name: o for o in fmu_outputs(declared, (*FIGURES, figure))}
+    assert (made["vane_spin_energy"].unit, made["vane_spin_energy"].source) == ("J", "vane_spin_energy")
+    assert made["spin_power"].per == outputs.REVOLUTION and made["spin_power"].source == "spin_power"
+    text = markdown_table(declared, (*FIGURES, figure))
+    assert "`vane_spin_energy`" in text and "`spin_power`" in text
+
+
+def test_per_region_outputs_expand_to_one_column_per_region():
+    normal = next(o for o in STEP_OUTPUTS if o.name == "normal_force")
+    assert normal.columns() == tuple(f"normal_force_{k}" for k in range(1, REGION_COUNT + 1))
+    assert outputs.OUTPUT_NAMES.index("normal_force_1") == outputs.O.normal_force
+    forces = [o for o in fmu_outputs() if o.source.startswith("normal_force_")]
+    assert [o.name for o in forces] == [f"contact_force_{k}" for k in range(1, REGION_COUNT + 1)]
+    assert [label for label, *_ in REGIONS] == list(REGION_LABELS)
+
+
+def test_columns_and_fmu_names_are_unique():
+    assert len(set(outputs.OUTPUT_NAMES)) == len(outputs.OUTPUT_NAMES)
+    names = [o.name for o in fmu_outputs()]
+    assert len(set(names)) == len(names)
+
+
+def test_every_declared_figure_is_a_summary_attribute():
+    fields = {f.name for f in dataclasses.fields(WindowSummary)} | {"max_contact_force"}
+    assert {f.name for f in FIGURES} <= fields
