@@ -13,8 +13,9 @@ the difference of two 20-revolution means, printed beside each error. A setting 
 every clearance, powers and eta_m are within max(0.05 %, 2 x noise) and the peak force within max(1 %, 2 x noise)
 of the reference. The absolute tolerances stay at their physical values
 (docs/model.md §8.2: positions 1e-9 m, ...; scaling them with rtol lets contacts close micrometres deep and the
-step fall below min_step). A run that stops is reported as failed. The cheapest setting that meets the bounds (wall time summed over the clearances) is printed per integrator and
-pressure model. The runs fan out over worker processes with dask.
+step fall below min_step). A run that stops is reported as failed. The cheapest setting that meets the bounds is printed per integrator and pressure model, and the cheapest that
+meets them for all four; cost is counted in integration steps per revolution (summed over the clearances), which
+the wall time follows within the noise of a shared machine. The runs fan out over worker processes with dask.
 """
 from __future__ import annotations
 
@@ -74,8 +75,8 @@ def errors(result: dict, reference: dict) -> dict:
     out = {}
     for name in FIGURES:
         got, expected = result["mean"][name], reference["mean"][name]
-        if not (math.isfinite(got) and math.isfinite(expected)):
-            continue
+        if not (math.isfinite(got) and math.isfinite(expected)) or (name in RELATIVE and expected == 0.0):
+            continue                    # not defined here (the pressure tables; no gas delivered at c = 0.2 mm)
         noise = math.hypot(result["scatter"][name] / math.sqrt(result["count"]),
                            reference["scatter"][name] / math.sqrt(reference["count"]))
         scale = abs(expected) if name in RELATIVE else 1.0
@@ -87,11 +88,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--quick", action="store_true", help="dopri5, one pressure model, fewer settings")
+    parser.add_argument("--models", nargs="+", choices=MODELS, default=MODELS)
+    parser.add_argument("--integrators", nargs="+", choices=INTEGRATORS, default=INTEGRATORS)
     args = parser.parse_args()
     import dask
     from dask import delayed
-    models = MODELS[:1] if args.quick else MODELS
-    integrators = INTEGRATORS[:1] if args.quick else INTEGRATORS
+    models = args.models[:1] if args.quick else args.models
+    integrators = args.integrators[:1] if args.quick else args.integrators
     tolerances = TOLERANCES[::2] if args.quick else TOLERANCES
     cases = list(itertools.product(models, integrators, CLEARANCES))
     jobs = [delayed(run_case)(*case, *REFERENCE) for case in cases]
@@ -101,19 +104,25 @@ def main() -> None:
     results = dask.compute(*jobs, scheduler="processes", num_workers=args.workers)
     references = {(r["model"], r["integrator"], r["clearance"]): r for r in results[:len(cases)]}
     print(f"{len(results)} runs in {time.perf_counter() - started:.0f} s on {args.workers} workers")
+    common = None
     for model, integrator in itertools.product(models, integrators):
-        report(model, integrator, [r for r in results[len(cases):] if (r["model"], r["integrator"]) ==
-                                   (model, integrator)], references)
+        feasible = report(model, integrator, [r for r in results[len(cases):] if (r["model"], r["integrator"]) ==
+                                              (model, integrator)], references)
+        common = feasible if common is None else {k: common[k] + v for k, v in feasible.items() if k in common}
+    if common:
+        rtol, max_step = min(common, key=common.get)
+        print(f"\ncheapest setting meeting the bounds for every pressure model and integrator above: rtol {rtol:g}, "
+              f"max_step {max_step:g} s")
 
 
 def report(model: str, integrator: str, results: list[dict], references: dict) -> None:
-    heading(f"{model}, {integrator}: worst error over c = 0, 0.05, 0.2 mm against rtol 1e-9 (cost: wall summed)")
+    heading(f"{model}, {integrator}: worst error over c = 0, 0.05, 0.2 mm against rtol 1e-9")
     ref_rows = []                 # the reference's revolution-to-revolution scatter (std / |mean|)
     for clearance in CLEARANCES:
         ref = references[(model, integrator, clearance)]
         ref_rows.append([f"{clearance * 1e3:g}", f"{ref['steps']:.0f}", f"{ref['wall']:.2f}",
                          *(f"{ref['scatter'][n] / abs(ref['mean'][n]):.1e}" if n in RELATIVE and math.isfinite(
-                             ref['mean'][n]) and ref['mean'][n] else
+                             ref['mean'][n]) and ref['mean'][n] != 0.0 else
                            (f"{ref['scatter'][n]:.2g} K" if math.isfinite(ref['mean'][n]) else "-")
                            for n in FIGURES)])
     print("reference (rtol 1e-9, max_step 2e-5): steps per revolution, wall [s], revolution-to-revolution scatter "
@@ -132,9 +141,9 @@ def report(model: str, integrator: str, results: list[dict], references: dict) -
                     ok = False
         wall = sum(r.get("wall", math.inf) for r in group)
         reference_wall = sum(references[(model, integrator, c)]["wall"] for c in CLEARANCES)
-        if ok:
-            feasible.append((wall, rtol, max_step))
         steps = [r["steps"] for r in group if "steps" in r]
+        if ok:
+            feasible.append((sum(steps), rtol, max_step))
         rows.append([f"{rtol:g}", f"{max_step:g}", f"{np.mean(steps):.0f}" if len(steps) == len(group) else "failed",
                      f"{wall:.2f}", f"{reference_wall / wall:.1f}",
                      *(f"{worst[n][0]:.1e} ({worst[n][1]:.0e})" if n in RELATIVE else
@@ -145,11 +154,12 @@ def report(model: str, integrator: str, results: list[dict], references: dict) -
     print("error (noise): worst over the clearances of |mean - reference mean| / |reference mean| (temperature in K)")
     print(table(["rtol", "max_step", "steps/rev", "wall [s]", "speed-up", *names, "meets bounds"], rows))
     if feasible:
-        wall, rtol, max_step = min(feasible)
+        _, rtol, max_step = min(feasible)
         print(f"cheapest setting within max({POWER_BOUND:.2%}, 2 noise) (powers, eta_m) and max({FORCE_BOUND:.0%}, 2 "
               f"noise) (peak force): rtol {rtol:g}, max_step {max_step:g} s")
     else:
         print("no setting of the grid meets the bounds")
+    return {(rtol, max_step): steps for steps, rtol, max_step in feasible}
 
 
 if __name__ == "__main__":
