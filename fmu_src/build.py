@@ -22,6 +22,8 @@ from pythonfmu import FmuBuilder
 from rotary_vane.thermo.compile_cache import PROJECT_PACKAGES, source_hash
 
 from .requirements import bundled_requirements
+from .status_shim import DEGRADED as SHIM_DEGRADED
+from .status_shim import install as install_status_shim
 from .slave import VERSION
 
 PROJECT_DIR = Path(__file__).resolve().parent.parent
@@ -103,8 +105,12 @@ times are integer nanoseconds.</p>
 <p>Hosts that are not Python programs (C/C++ tools): the FMU's binary does not link libpython; start the host
 with <code>LD_PRELOAD=/path/to/libpython3.X.so</code> of a Python environment that has the requirements, and make
 that environment visible through <code>PYTHONPATH</code> or <code>PYTHONHOME</code>.</p>
-<p>Errors: a bad parameter is reported at initialization (error message) and every step is then refused with
-fmi2Discard; a bad input or step size discards that step with a message. Messages also go to stderr.</p>
+<p>Errors follow FMI 2.0: a bad parameter is fmi2Error at exitInitializationMode and at every later doStep;
+misuse (calls in the wrong state, writes to outputs or to fixed parameters after initialization, unknown value
+references, strings that are not UTF-8, bad step sizes, communication points that do not continue the model time,
+state bytes that are not a state of this build) is fmi2Error; an out-of-range input value is fmi2Discard for that
+step; a revolution that delivered no gas is fmi2Warning. Every refusal comes with a message naming the variable,
+its value and the allowed range (also on stderr); min and max are inclusive.</p>
 <h2>Variables</h2>
 <table><tr><th>name</th><th>causality</th><th>type</th><th>unit</th><th>start</th><th>min</th><th>max</th>
 <th>description</th></tr>
@@ -149,9 +155,14 @@ def build(out_dir: Path, map_file: Path | None = None) -> list[Path]:
                 documentation = staging / f"documentation_{model}"
                 documentation.mkdir()
                 (documentation / "index.html").write_text(documentation_html(model, slave_class, requirements))
-                built.append(FmuBuilder.build_FMU(
+                fmu = FmuBuilder.build_FMU(
                     entry, dest=out_dir / f"{model}.fmu", project_files=[package, staging / "requirements.txt"],
-                    documentation_folder=documentation, canGetAndSetFMUstate=True, canSerializeFMUstate=True))
+                    documentation_folder=documentation, canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+                reason = install_status_shim(Path(fmu), model, f"{model}/{private}")
+                if reason is not None:
+                    print(f"warning: {model}.fmu keeps pythonfmu's binary because the FMI status shim could not be "
+                          f"built ({reason.strip()}); {model}.fmu runs, but {SHIM_DEGRADED}", file=sys.stderr)
+                built.append(Path(fmu))
         finally:
             sys.path.remove(str(staging))
             for name in [m for m in sys.modules if m == private or m.startswith(private + ".")]:
