@@ -9,15 +9,16 @@ from __future__ import annotations
 import math
 
 from pythonfmu.default_experiment import DefaultExperiment
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from rotary_vane.mechanics.layout import OUTPUT_INDEX, WORK_IN
 from rotary_vane.mechanics.performance import RevolutionMonitor
 
+from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
-from .slave import GuardedSlave
+from .slave import GuardedSlave, StepFailed
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
 # output name -> (unit, description); filled from the simulation after every step
@@ -73,6 +74,8 @@ RUN_PARAMETERS = {
     "initial_rotor_angle": ("rad", 0.0, -1e3, 1e3, "rotor angle theta at the start time"),
 }
 
+PARAMETER_NAMES = (*(name for name, _, _ in declarations()), *RUN_PARAMETERS, "interpolate_speed", "fidelity")
+
 
 class CompressorSlave(GuardedSlave):
     """Single sliding-vane rotary compressor with clearance, contact and friction (docs/model.md §1-§8)."""
@@ -114,6 +117,8 @@ class CompressorSlave(GuardedSlave):
                                       *PER_REVOLUTION, *PER_REVOLUTION_GAS], 0.0)
         self.contact_mode = 0
         self.contact_mode_count = 0
+        self.warned_revolution = None                # end time of the last revolution whose NaN figures were reported
+        self.built_with = None                       # the parameters the model was built with
         for name, (unit, text) in {**END_OF_STEP, **PER_REVOLUTION, **PER_REVOLUTION_GAS}.items():
             self._register_output(name, unit, text)
         self._register_output("shaft_torque_mean", "N.m", "shaft work over the last step / angle turned in it "
@@ -126,7 +131,8 @@ class CompressorSlave(GuardedSlave):
                                                                     "dwell >= mode_dwell_time)"))
 
     def _register_output(self, name, unit, text):
-        self.register_variable(output(name, unit, text, getter=lambda: self.outputs[name]))
+        owner = self.owner
+        self.register_variable(output(name, unit, text, getter=lambda: owner.outputs[name]))
 
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
@@ -138,36 +144,36 @@ class CompressorSlave(GuardedSlave):
             value = getattr(self, name)
             if not (math.isfinite(value) and low <= value <= high):
                 raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed [{low:g}, {high:g}]")
-        if check_fidelity(self.fidelity) == "periodic_map":
-            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, self.shaft_speed,
-                                          self.initial_rotor_angle)
+        check_fidelity(self.fidelity)
+        self._build(params, self.shaft_speed)
+
+    def _build(self, params, speed_rpm):
+        """The model of `params` at its start (the speed is the input at the start time)."""
+        self.simulation = self.monitor = self.map_run = None
+        self.built_with = self._parameter_values()
+        if self.fidelity == "periodic_map":
+            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, speed_rpm, self.initial_rotor_angle)
             return
         self.monitor = RevolutionMonitor(params)
-        self.simulation = Simulation(params, constant_speed(self.shaft_speed), initial_angle=self.initial_rotor_angle,
+        self.simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed,
                                      observers=[self.monitor])
 
-    def advance(self, time, step_size):
-        if self.map_run is not None:
-            return self._advance_map(time, step_size)
-        simulation = self.simulation
-        if not math.isclose(time, simulation.time, rel_tol=1e-12, abs_tol=1e-12):
-            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
-                               f"model time {simulation.time + self.start_time!r} s")
+    def input_error(self):
         if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
-            return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
-                               f"[0, {MAX_SHAFT_SPEED:g}] rpm")
-        if simulation.time + step_size == simulation.time:
-            return True                             # below the resolution of the model time: nothing to do
+            return f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed [0, {MAX_SHAFT_SPEED:g}] rpm"
+        return None
+
+    def advance(self, end_time, step_size):
+        if self.map_run is not None:
+            return self._advance_map(step_size)
+        simulation = self.simulation
         work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
         try:
-            simulation.advance(simulation.time + step_size, speed_rpm=self.shaft_speed,
-                               interpolate=self.interpolate_speed)
+            simulation.advance(end_time, speed_rpm=self.shaft_speed, interpolate=self.interpolate_speed)
         except IntegrationError as error:
-            self.failure = f"the simulation stopped: {error}"
-            return self.refuse(self.failure)
+            raise StepFailed(f"the simulation stopped: {error}") from None
         self._update_outputs(simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before)
-        return True
 
     def _update_outputs(self, work, angle):
         row = self.simulation.last_output
@@ -189,52 +195,75 @@ class CompressorSlave(GuardedSlave):
                 figures = self.simulation.gas_reference.figures(last)
                 for name in PER_REVOLUTION_GAS:
                     values[name] = float(figures[name])
+                undefined = [name for name in PER_REVOLUTION_GAS if not math.isfinite(values[name])]
+                if undefined and last.end_time != self.warned_revolution:
+                    self.warned_revolution = last.end_time
+                    self.report(f"{', '.join(undefined)} = nan: {self.undefined_reason(undefined[0])}",
+                                Fmi2Status.warning)
         self.contact_mode = int(row[OUTPUT_INDEX["contact_mode"]])
         self.contact_mode_count = len(self.monitor.distinct_modes)
 
-    def _advance_map(self, time, step_size):
+    def undefined_reason(self, name):
+        last = self.monitor.last if self.monitor is not None else None
+        if name in PER_REVOLUTION_GAS and last is not None:
+            return (f"the revolution ending at t = {last.end_time + self.start_time:.9g} s delivered no gas to the "
+                    f"discharge (discharge_pressure = {self.discharge_pressure:g} Pa not reached)")
+        return "no defined value"
+
+    def _advance_map(self, step_size):
         """One step of the periodic_map fidelity (fmu_src.periodic_map_mode)."""
         run = self.map_run
-        if not math.isclose(time, run.time, rel_tol=1e-12, abs_tol=1e-12):
-            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
-                               f"model time {run.time + self.start_time!r} s")
-        if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
-            return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
-                               f"[0, {MAX_SHAFT_SPEED:g}] rpm")
         work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
         self.outputs.update(run.outputs())
         self.outputs["shaft_torque_mean"] = work / angle if angle > 0.0 else self.outputs["shaft_torque"]
         self.outputs["shaft_work"] = run.work
         self.outputs["shaft_angle"] = run.angle - self.initial_rotor_angle
         self.contact_mode = run.contact_mode
-        return True
 
     # state --------------------------------------------------------------------------------------------------
+    def _parameter_values(self):
+        return {name: getattr(self, name) for name in PARAMETER_NAMES}
+
     def snapshot(self):
-        parameters = {name: getattr(self, name) for name in [*(n for n, _, _ in declarations()), *RUN_PARAMETERS,
-                                                              "interpolate_speed", "fidelity"]}
-        return dict(simulation=self.simulation.get_state() if self.simulation else None, monitor=self.monitor,
-                    map_run=self.map_run.get_state() if self.map_run else None,
-                    outputs=self.outputs, contact_mode=self.contact_mode, parameters=parameters,
-                    start_time=self.start_time, contact_mode_count=self.contact_mode_count, failure=self.failure,
-                    shaft_speed=self.shaft_speed)
+        return dict(parameters=self._parameter_values(), shaft_speed=self.shaft_speed, outputs=dict(self.outputs),
+                    contact_mode=self.contact_mode, contact_mode_count=self.contact_mode_count,
+                    warned_revolution=self.warned_revolution,
+                    simulation=compressor_state.simulation_state(self.simulation) if self.simulation else None,
+                    monitor=compressor_state.monitor_state(self.monitor) if self.monitor else None,
+                    map_run=self.map_run.get_state() if self.map_run else None)
+
+    @classmethod
+    def serializable(cls, tree):
+        model = tree["model"]
+        if model["monitor"] is None:
+            return tree
+        return {**tree, "model": {**model, "monitor": compressor_state.compact(model["monitor"])}}
 
     def restore(self, state):
-        """Restore a state; an instance that is not initialized yet is built from the state's parameters."""
-        for name, value in state["parameters"].items():
+        """Restore a state; the model is rebuilt from the state's parameters unless it was built with them."""
+        parameters = state["parameters"]
+        if set(parameters) != set(self._parameter_values()):
+            raise ValueError("the state's parameters are not this model's")
+        for name, value in parameters.items():
             setattr(self, name, value)
-        for name in ("outputs", "contact_mode", "contact_mode_count", "failure", "shaft_speed", "start_time"):
-            setattr(self, name, state[name])
-        if state.get("map_run") is not None:
-            if self.map_run is None:
-                self.initialize()
-            self.map_run.set_state(state["map_run"])
-            return
-        if state["simulation"] is None:             # a state from before initialization
+        self.shaft_speed = float(state["shaft_speed"])
+        self.outputs = {name: float(state["outputs"][name]) for name in self.outputs}
+        self.contact_mode, self.contact_mode_count = int(state["contact_mode"]), int(state["contact_mode_count"])
+        self.warned_revolution = state["warned_revolution"]
+        kind = "map" if state["map_run"] is not None else "detailed" if state["simulation"] is not None else None
+        built = "map" if self.map_run is not None else "detailed" if self.simulation is not None else None
+        if kind is None:                            # a state from before initialization
             self.simulation = self.monitor = self.map_run = None
+            self.built_with = None
             return
-        if self.simulation is None:
-            self.initialize()
-        self.simulation.set_state(state["simulation"])
-        self.monitor = state["monitor"]
+        if kind != built or self.built_with != parameters:
+            self._build(CompressorParameters(**{name: parameters[name] for name, _, _ in declarations()}), 0.0)
+        if kind == "map":
+            saved = state["map_run"]
+            if set(saved) != set(self.map_run.get_state()):
+                raise ValueError("the state's periodic-map run is not this model's")
+            self.map_run.set_state({name: float(value) for name, value in saved.items()})
+            return
+        compressor_state.restore_simulation(self.simulation, state["simulation"])
+        self.monitor = compressor_state.restore_monitor(self.simulation.params, state["monitor"])
         self.simulation.observers = [self.monitor]

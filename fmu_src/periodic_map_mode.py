@@ -15,6 +15,7 @@ from pathlib import Path
 
 from rotary_vane.mechanics.periodic_map import (TORQUE, MapSettings, build_map, cache_key,
                                                 default_cache_dir)
+from rotary_vane.mechanics.parameters import short_repr
 from rotary_vane.mechanics.speed import RPM
 
 FIDELITIES = ("detailed", "periodic_map")
@@ -91,6 +92,7 @@ class PeriodicMapRun:
 
 def check_fidelity(value) -> str:
     if value not in FIDELITIES:
-        raise ValueError(f"parameter 'fidelity' = {value!r} is invalid: allowed one of {', '.join(FIDELITIES)}")
+        raise ValueError(f"parameter 'fidelity' = {short_repr(value)} is invalid: allowed one of "
+                         f"{', '.join(FIDELITIES)}")
     return value
 
