@@ -225,7 +225,9 @@ class CompressorSlave(GuardedSlave):
         return {name: getattr(self, name) for name in PARAMETER_NAMES}
 
     def snapshot(self):
-        return dict(parameters=self._parameter_values(), shaft_speed=self.shaft_speed, outputs=dict(self.outputs),
+        # after initialization the parameters are those the model was built with (fixed parameters cannot change)
+        parameters = self.built_with if self.built_with is not None else self._parameter_values()
+        return dict(parameters=parameters, shaft_speed=self.shaft_speed, outputs=dict(self.outputs),
                     contact_mode=self.contact_mode, contact_mode_count=self.contact_mode_count,
                     warned_revolution=self.warned_revolution,
                     simulation=compressor_state.simulation_state(self.simulation) if self.simulation else None,

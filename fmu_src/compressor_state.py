@@ -42,9 +42,10 @@ def restore_simulation(simulation, state: dict) -> None:
 
 
 def monitor_state(monitor: RevolutionMonitor) -> dict:
-    last = monitor.last
-    return dict(pending=list(monitor.pending), last_boundary=monitor.last_boundary,
-                last=None if last is None else _summary_state(last), run_dwell=monitor.run_dwell.copy(),
+    """The monitor's state; its last summary is shared too (the monitor replaces it, never changes it), `compact`
+    makes it plain data."""
+    return dict(pending=list(monitor.pending), last_boundary=monitor.last_boundary, last=monitor.last,
+                run_dwell=monitor.run_dwell.copy(),
                 previous_row=None if monitor.previous_row is None else monitor.previous_row.copy())
 
 
@@ -55,14 +56,16 @@ def restore_monitor(params, state: dict) -> RevolutionMonitor:
         raise ValueError(f"saved run_dwell has shape {run_dwell.shape}, the monitor needs {monitor.run_dwell.shape}")
     monitor.pending = _expand_pending(state["pending"])
     monitor.last_boundary = None if state["last_boundary"] is None else int(state["last_boundary"])
-    monitor.last = None if state["last"] is None else _summary_from_state(state["last"])
+    last = state["last"]
+    monitor.last = last if last is None or isinstance(last, WindowSummary) else _summary_from_state(last)
     monitor.run_dwell = run_dwell
     monitor.previous_row = None if state["previous_row"] is None else np.array(state["previous_row"], dtype=float)
     return monitor
 
 
 def compact(state: dict) -> dict:
-    """`monitor_state` with its buffered rows reduced to what the revolution summary reads."""
+    """`monitor_state` as plain data, its buffered rows reduced to what the revolution summary reads."""
+    state = {**state, "last": None if state["last"] is None else _summary_state(state["last"])}
     pending = state["pending"]
     if not isinstance(pending, list) or not pending:
         return state
