@@ -232,6 +232,10 @@ def _validate_relations(params: CompressorParameters) -> None:
     bottom_radius_at_full_stroke = p.base_radius + p.stroke - straight_length
     shortest = p.base_radius + p.stroke - p.mouth_radius + p.vane_thickness + p.tip_radius
     if bottom_radius_at_full_stroke > p.mouth_radius - p.vane_thickness:
+        if p.vane_length == _declared("vane_length")[0] and p.stroke != _declared("stroke")[0]:
+            longest_stroke = p.mouth_radius - p.vane_thickness + straight_length - p.base_radius
+            _reject("stroke", p.stroke, f"<= {longest_stroke:g} m (at least one vane thickness of the vane_length = "
+                                        f"{p.vane_length:g} m engaged in the slot at full stroke)")
         _reject("vane_length", p.vane_length,
                 f">= {shortest:g} m (at least one vane thickness engaged in the slot at full stroke "
                 f"{p.stroke:g} m)")

@@ -209,6 +209,10 @@ def test_a_relation_names_the_parameter_that_was_changed():
     assert "allowed < 0.0205 m" in message and "'slot_bottom_radius'" not in message, message
     message = assert_rejected("slot_bottom_radius", 0.02)
     assert "allowed < 0.012 m" in message, message
+    # a stroke the default vane cannot follow: R0 + h - (l_v - t/2) <= R_m - t, R_m = sqrt(30^2 - 2^2) mm
+    message = assert_rejected("stroke", 0.02)
+    longest = (30e-3 ** 2 - 2e-3 ** 2) ** 0.5 - 4e-3 + 16e-3 - 28e-3
+    assert f"allowed <= {longest:g} m" in message and "'vane_length'" not in message, message
 
 
 def test_a_long_bad_value_is_echoed_cut_to_a_readable_length():
