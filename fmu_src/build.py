@@ -121,9 +121,11 @@ that environment visible through <code>PYTHONPATH</code> or <code>PYTHONHOME</co
 <p>Errors follow FMI 2.0: a bad parameter is fmi2Error at exitInitializationMode and at every later doStep;
 misuse (calls in the wrong state, writes to outputs or to fixed parameters after initialization, unknown value
 references, strings that are not UTF-8, bad step sizes, communication points that do not continue the model time,
-state bytes that are not a state of this build) is fmi2Error; an out-of-range input value is fmi2Discard for that
-step; a revolution that delivered no gas is fmi2Warning. Every refusal comes with a message naming the variable,
-its value and the allowed range (also on stderr); min and max are inclusive.</p>
+state bytes that are not a state of this build) is fmi2Error, after which the instance is in the error state
+until fmi2SetFMUstate or fmi2Reset; an out-of-range input value, or a step the integrator cannot complete, is
+fmi2Discard for that step, with the state exactly as before it; a value without definition (NaN) comes with
+fmi2Warning. Every refusal comes with a message naming the variable, its value and the allowed range (also on
+stderr); min and max are inclusive.</p>
 <h2>Variables</h2>
 <table><tr><th>name</th><th>causality</th><th>type</th><th>unit</th><th>start</th><th>min</th><th>max</th>
 <th>description</th></tr>
