@@ -391,6 +391,7 @@ def test_serialized_state_continues_exactly_in_another_process(fmu, env, state_r
     """The serialized state, restored in a new process (into an instance initialized with the same
     parameters), continues exactly as the original process did."""
     out, state_file = state_run
+    print(f"\nserialized state at 30 ms of the ramp (inside a revolution): {out['size']} bytes")
     run = H.run_host(script(RESTORE_INITIALIZED, fmu=fmu, state_file=state_file), env=env).check()
     assert_no_fatal(run.result["statuses"])
     assert run.result["rows"] == out["first"]
