@@ -208,9 +208,10 @@ class GuardedSlave(PythonFmuSlave):
         before = self.snapshot()
         try:
             self.initialize()
-        except ValueError as error:       # refused: the instance stays as it was (the shim: in the error state)
+        except Exception as error:        # noqa: BLE001 - refused: the instance stays as it was (the shim: error state)
             self._roll_back(before)
-            return self.report(f"initialization refused: {error}")
+            return self.report(f"initialization refused: {error}" if isinstance(error, ValueError) else
+                               f"initialization failed ({type(error).__name__}: {str(error)[:400]})")
         self.phase = INITIALIZED
         self.clock = Clock(self.clock.start_time)
 

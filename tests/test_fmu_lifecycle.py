@@ -22,7 +22,6 @@ import math
 import random
 import subprocess
 import sys
-import tempfile
 import time
 import zipfile
 from collections import Counter
