@@ -44,16 +44,16 @@ typedef struct {
 } Shim;
 
 static void *library;
+/* pythonfmu's functions that the shim forwards to (an X-macro: declared and loaded from one list) */
+#define FORWARDED(X) X(fmi2SetDebugLogging) X(fmi2Instantiate) X(fmi2FreeInstance) X(fmi2SetupExperiment) \
+    X(fmi2EnterInitializationMode) X(fmi2ExitInitializationMode) X(fmi2Terminate) X(fmi2Reset) X(fmi2GetReal) \
+    X(fmi2GetInteger) X(fmi2GetBoolean) X(fmi2GetString) X(fmi2SetReal) X(fmi2SetInteger) X(fmi2SetBoolean) \
+    X(fmi2SetString) X(fmi2GetFMUstate) X(fmi2SetFMUstate) X(fmi2FreeFMUstate) X(fmi2SerializedFMUstateSize) \
+    X(fmi2SerializeFMUstate) X(fmi2DeSerializeFMUstate) X(fmi2GetDirectionalDerivative) \
+    X(fmi2SetRealInputDerivatives) X(fmi2GetRealOutputDerivatives) X(fmi2DoStep) X(fmi2CancelStep) \
+    X(fmi2GetRealStatus) X(fmi2GetIntegerStatus) X(fmi2GetBooleanStatus) X(fmi2GetStringStatus)
 #define INNER(name) static name##TYPE *inner_##name;
-INNER(fmi2SetDebugLogging) INNER(fmi2Instantiate)
-INNER(fmi2FreeInstance) INNER(fmi2SetupExperiment) INNER(fmi2EnterInitializationMode)
-INNER(fmi2ExitInitializationMode) INNER(fmi2Terminate) INNER(fmi2Reset) INNER(fmi2GetReal) INNER(fmi2GetInteger)
-INNER(fmi2GetBoolean) INNER(fmi2GetString) INNER(fmi2SetReal) INNER(fmi2SetInteger) INNER(fmi2SetBoolean)
-INNER(fmi2SetString) INNER(fmi2GetFMUstate) INNER(fmi2SetFMUstate) INNER(fmi2FreeFMUstate)
-INNER(fmi2SerializedFMUstateSize) INNER(fmi2SerializeFMUstate) INNER(fmi2DeSerializeFMUstate)
-INNER(fmi2GetDirectionalDerivative) INNER(fmi2SetRealInputDerivatives) INNER(fmi2GetRealOutputDerivatives)
-INNER(fmi2DoStep) INNER(fmi2CancelStep) INNER(fmi2GetRealStatus) INNER(fmi2GetIntegerStatus)
-INNER(fmi2GetBooleanStatus) INNER(fmi2GetStringStatus)
+FORWARDED(INNER)
 
 /* Load pythonfmu's library from this library's folder; report on stderr why not (no logger exists yet). */
 static int load_inner(void) {
@@ -79,15 +79,7 @@ static int load_inner(void) {
     free(path);
 #define LOAD(name) if (!(inner_##name = (name##TYPE *)dlsym(opened, #name))) { \
         fprintf(stderr, "fmi2 status shim: pythonfmu's library lacks %s\n", #name); return 0; }
-    LOAD(fmi2SetDebugLogging) LOAD(fmi2Instantiate)
-    LOAD(fmi2FreeInstance) LOAD(fmi2SetupExperiment) LOAD(fmi2EnterInitializationMode)
-    LOAD(fmi2ExitInitializationMode) LOAD(fmi2Terminate) LOAD(fmi2Reset) LOAD(fmi2GetReal) LOAD(fmi2GetInteger)
-    LOAD(fmi2GetBoolean) LOAD(fmi2GetString) LOAD(fmi2SetReal) LOAD(fmi2SetInteger) LOAD(fmi2SetBoolean)
-    LOAD(fmi2SetString) LOAD(fmi2GetFMUstate) LOAD(fmi2SetFMUstate) LOAD(fmi2FreeFMUstate)
-    LOAD(fmi2SerializedFMUstateSize) LOAD(fmi2SerializeFMUstate) LOAD(fmi2DeSerializeFMUstate)
-    LOAD(fmi2GetDirectionalDerivative) LOAD(fmi2SetRealInputDerivatives) LOAD(fmi2GetRealOutputDerivatives)
-    LOAD(fmi2DoStep) LOAD(fmi2CancelStep) LOAD(fmi2GetRealStatus) LOAD(fmi2GetIntegerStatus)
-    LOAD(fmi2GetBooleanStatus) LOAD(fmi2GetStringStatus)
+    FORWARDED(LOAD)
     library = opened;
     return 1;
 }
