@@ -168,12 +168,16 @@ def simulate(fmu: Path, *, stop_time: float, step: float, start_values: dict, lo
     Returns fmpy's structured result array. Raises HarnessError if the run did not reach `stop_time` or the
     FMU logged an error, with the FMU's messages."""
     from fmpy import read_model_description, simulate_fmu
+    from fmpy.fmi1 import FMICallException
     model_description = read_model_description(str(fmu))
     check_start_values(model_description, start_values)
     since = log.mark()
-    result = simulate_fmu(str(fmu), start_time=0.0, stop_time=stop_time, output_interval=step,
-                          start_values=start_values, input=input, debug_logging=True, logger=log,
-                          step_finished=progress, validate=True)
+    try:
+        result = simulate_fmu(str(fmu), start_time=0.0, stop_time=stop_time, output_interval=step,
+                              start_values=start_values, input=input, debug_logging=True, logger=log,
+                              step_finished=progress, validate=True)
+    except FMICallException as error:       # fmi2Error, e.g. parameters that conflict with each other
+        raise HarnessError(f"{fmu.name}: {error}. The FMU said:\n{log.last(since=since)}") from None
     reached = float(result["time"][-1])
     if not math.isclose(reached, stop_time, rel_tol=1e-9, abs_tol=1e-6 * step):
         raise HarnessError(f"{fmu.name} stopped at t = {reached:g} s, before the stop time {stop_time:g} s "

@@ -11,19 +11,21 @@ from __future__ import annotations
 import math
 
 from pythonfmu.default_experiment import DefaultExperiment
-from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Variability
+from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from rotary_vane.mechanics.layout import WORK_IN
 from rotary_vane.mechanics.modes import MODE_COUNT
-from rotary_vane.mechanics.outputs import OUTPUT_INDEX, REVOLUTION, fmu_outputs
+from rotary_vane.mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
 
+from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
-from .slave import GuardedSlave
+from .slave import GuardedSlave, StepFailed
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
 OUTPUTS = fmu_outputs()
+REAL_GAS_FIGURES = tuple(d.name for d in OUTPUTS if d.per == REVOLUTION and d.models == REAL_GAS)
 MAX_SHAFT_SPEED = 30000.0             # rpm: far above any vane compressor; beyond it the input is refused
 # FMU-only parameters (the physics parameters come from mechanics.parameters)
 RUN_PARAMETERS = {
@@ -38,6 +40,7 @@ STEP_RESULTS = {
     "shaft_work": ("J", "cumulative shaft work since the start"),
     "shaft_angle": ("rad", "cumulative rotor angle turned since the start"),
 }
+PARAMETER_NAMES = (*(name for name, _, _ in declarations()), *RUN_PARAMETERS, "interpolate_speed", "fidelity")
 
 
 class CompressorSlave(GuardedSlave):
@@ -59,6 +62,8 @@ class CompressorSlave(GuardedSlave):
         self.shaft_speed = 1500.0
         self.interpolate_speed = True
         self.step_results = dict.fromkeys(STEP_RESULTS, 0.0)
+        self.warned_revolution = None                # end time of the last revolution whose NaN figures were reported
+        self.built_with = None                       # the parameters the model was built with
         self.register_variable(RealVariable(
             "shaft_speed", "rpm", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
             minimum=0.0, maximum=MAX_SHAFT_SPEED, description="rotor speed; held or ramped over each communication step"))
@@ -77,48 +82,51 @@ class CompressorSlave(GuardedSlave):
             choices=FIDELITIES, description="detailed: every vane impact resolved; periodic_map: the detailed "
                                              "model's periodic steady state tabulated over 10-120 % of "
                                              "pressure_table_speed at initialization, interpolated at run time")))
+        owner = self.owner
         for declared in OUTPUTS:
-            getter = (self._figure_getter(declared.name, declared.source) if declared.per == REVOLUTION
-                      else self._column_getter(declared.name, OUTPUT_INDEX[declared.source]))
+            getter = (_figure_getter(owner, declared) if declared.per == REVOLUTION
+                      else _column_getter(owner, declared.name, OUTPUT_INDEX[declared.source]))
             self.register_variable(output(declared.name, declared.unit, declared.description, getter))
         for name, (unit, text) in STEP_RESULTS.items():
-            self.register_variable(output(name, unit, text, lambda name=name: self.step_results[name]))
+            self.register_variable(output(name, unit, text, lambda name=name: owner.step_results[name]))
         self.register_variable(integer_output("contact_mode", "bit mask of the regions in contact (bit k-1 for "
                                                               "region ck) at the end of the step",
-                                              getter=self._contact_mode))
+                                              getter=lambda: owner.contact_mode))
         self.register_variable(integer_output("contact_mode_count", "distinct contact modes so far (cumulative "
                                                                     "dwell >= mode_dwell_time)",
-                                              getter=self._contact_mode_count))
+                                              getter=lambda: owner.contact_mode_count))
 
-    # outputs, read on demand ----------------------------------------------------------------------------------
-    def _column_getter(self, name, column):
-        def value():
-            if self.map_run is not None:
-                return self.map_values.get(name, 0.0)
-            return float(self.simulation.last_output[column]) if self.simulation is not None else 0.0
-        return value
-
-    def _figure_getter(self, name, figure):
-        """A per-revolution figure; 0 before the first completed revolution and for figures the pressure model
-        does not define (the real-gas figures under the pressure tables)."""
-        def value():
-            if self.map_run is not None:
-                return self.map_values.get(name, 0.0)
-            summary = self.simulation.last_revolution if self.simulation is not None else None
-            number = getattr(summary, figure) if summary is not None else 0.0
-            return float(number) if math.isfinite(number) else 0.0
-        return value
-
-    def _contact_mode(self):
+    # outputs, read when the importer asks ----------------------------------------------------------------------
+    @property
+    def contact_mode(self) -> int:
         if self.map_run is not None:
             return self.map_run.contact_mode
         return int(self.simulation.last_output[OUTPUT_INDEX["contact_mode"]]) if self.simulation is not None else 0
 
-    def _contact_mode_count(self):
+    @property
+    def contact_mode_count(self) -> int:
         if self.simulation is None:
             return 0
         dwell = self.simulation.run_dwell.reshape(-1, MODE_COUNT).sum(axis=0)
         return int((dwell >= self.mode_dwell_time).sum())
+
+    def figure(self, declared) -> float:
+        """A per-revolution figure of the last completed revolution: 0 before the first one and for a figure the
+        pressure model does not define (the real-gas figures under the pressure tables); NaN (reported with
+        fmi2Warning) where the model defines it but the revolution gave it no value."""
+        if self.map_run is not None:
+            return self.map_values.get(declared.name, 0.0)
+        summary = self.simulation.last_revolution if self.simulation is not None else None
+        if summary is None or self.pressure_model not in declared.models:
+            return 0.0
+        return float(getattr(summary, declared.source))
+
+    def undefined_reason(self, name):
+        summary = self.simulation.last_revolution if self.simulation is not None else None
+        if summary is not None and name in REAL_GAS_FIGURES:
+            return (f"the revolution ending at t = {summary.end_time + self.start_time:.9g} s delivered no gas to "
+                    f"the discharge (discharge_pressure = {self.discharge_pressure:g} Pa not reached)")
+        return "no defined value"
 
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
@@ -130,80 +138,109 @@ class CompressorSlave(GuardedSlave):
             value = getattr(self, name)
             if not (math.isfinite(value) and low <= value <= high):
                 raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed [{low:g}, {high:g}]")
-        if check_fidelity(self.fidelity) == "periodic_map":
-            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, self.shaft_speed,
-                                          self.initial_rotor_angle)
+        check_fidelity(self.fidelity)
+        self._build(params, self.shaft_speed)
+
+    def _build(self, params, speed_rpm):
+        """The model of `params` at its start (the speed is the input at the start time)."""
+        self.simulation = self.map_run = None
+        self.built_with = self._parameter_values()
+        if self.fidelity == "periodic_map":
+            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, speed_rpm, self.initial_rotor_angle)
             return
-        self.simulation = Simulation(params, constant_speed(self.shaft_speed), initial_angle=self.initial_rotor_angle,
+        self.simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed)
 
-    def advance(self, time, step_size):
-        if self.map_run is not None:
-            return self._advance_map(time, step_size)
-        simulation = self.simulation
-        if not math.isclose(time, simulation.time, rel_tol=1e-12, abs_tol=1e-12):
-            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
-                               f"model time {simulation.time + self.start_time!r} s")
+    def input_error(self):
         if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
-            return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
-                               f"[0, {MAX_SHAFT_SPEED:g}] rpm")
-        if simulation.time + step_size == simulation.time:
-            return True                             # below the resolution of the model time: nothing to do
+            return f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed [0, {MAX_SHAFT_SPEED:g}] rpm"
+        return None
+
+    def advance(self, end_time, step_size):
+        if self.map_run is not None:
+            return self._advance_map(step_size)
+        simulation = self.simulation
         work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
+        last_before = simulation.last_revolution
         try:
-            simulation.advance(simulation.time + step_size, speed_rpm=self.shaft_speed,
-                               interpolate=self.interpolate_speed)
+            simulation.advance(end_time, speed_rpm=self.shaft_speed, interpolate=self.interpolate_speed)
         except IntegrationError as error:
-            self.failure = f"the simulation stopped: {error}"
-            return self.refuse(self.failure)
+            raise StepFailed(f"the simulation stopped: {error}") from None
         work, angle = simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before
         results = self.step_results
-        results["shaft_torque_mean"] = (work / angle if angle > 0.0 else
+        results["shaft_torque_mean"] = (float(work / angle) if angle > 0.0 else
                                         float(simulation.last_output[OUTPUT_INDEX["driving_torque"]]))
         results["shaft_work"] = float(simulation.state[WORK_IN])
         results["shaft_angle"] = simulation.rotor_angle - self.initial_rotor_angle
-        return True
+        if simulation.last_revolution is not last_before:
+            self._warn_undefined_figures()
 
-    def _advance_map(self, time, step_size):
+    def _warn_undefined_figures(self):
+        """fmi2Warning once per revolution whose figures have no value (a revolution that delivered no gas)."""
+        summary = self.simulation.last_revolution
+        undefined = [d.name for d in OUTPUTS if d.per == REVOLUTION and not math.isfinite(self.figure(d))]
+        if undefined and summary.end_time != self.warned_revolution:
+            self.warned_revolution = summary.end_time
+            self.report(f"{', '.join(undefined)} = nan: {self.undefined_reason(undefined[0])}", Fmi2Status.warning)
+
+    def _advance_map(self, step_size):
         """One step of the periodic_map fidelity (fmu_src.periodic_map_mode)."""
         run = self.map_run
-        if not math.isclose(time, run.time, rel_tol=1e-12, abs_tol=1e-12):
-            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
-                               f"model time {run.time + self.start_time!r} s")
-        if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
-            return self.refuse(f"input 'shaft_speed' = {self.shaft_speed!r} rpm is invalid: allowed "
-                               f"[0, {MAX_SHAFT_SPEED:g}] rpm")
         work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
         self.map_values = run.outputs()
         results = self.step_results
         results["shaft_torque_mean"] = work / angle if angle > 0.0 else self.map_values["shaft_torque"]
         results["shaft_work"] = run.work
         results["shaft_angle"] = run.angle - self.initial_rotor_angle
-        return True
 
     # state --------------------------------------------------------------------------------------------------
+    def _parameter_values(self):
+        return {name: getattr(self, name) for name in PARAMETER_NAMES}
+
     def snapshot(self):
-        parameters = {name: getattr(self, name) for name in [*(n for n, _, _ in declarations()), *RUN_PARAMETERS,
-                                                              "interpolate_speed", "fidelity"]}
-        return dict(simulation=self.simulation.get_state() if self.simulation else None,
-                    map_run=self.map_run.get_state() if self.map_run else None, map_values=self.map_values,
-                    step_results=self.step_results, parameters=parameters, start_time=self.start_time,
-                    failure=self.failure, shaft_speed=self.shaft_speed)
+        # after initialization the parameters are those the model was built with (fixed parameters cannot change)
+        parameters = self.built_with if self.built_with is not None else self._parameter_values()
+        return dict(parameters=parameters, shaft_speed=self.shaft_speed, step_results=dict(self.step_results),
+                    map_values=dict(self.map_values), warned_revolution=self.warned_revolution,
+                    simulation=compressor_state.simulation_state(self.simulation) if self.simulation else None,
+                    map_run=self.map_run.get_state() if self.map_run else None)
 
     def restore(self, state):
-        """Restore a state; an instance that is not initialized yet is built from the state's parameters."""
-        for name, value in state["parameters"].items():
+        """Restore a state; the model is rebuilt from the state's parameters unless it was built with them."""
+        parameters = state["parameters"]
+        if set(parameters) != set(self._parameter_values()):
+            raise ValueError("the state's parameters are not this model's")
+        for name, value in parameters.items():
             setattr(self, name, value)
-        for name in ("map_values", "step_results", "failure", "shaft_speed", "start_time"):
-            setattr(self, name, state[name])
-        if state.get("map_run") is not None:
-            if self.map_run is None:
-                self.initialize()
-            self.map_run.set_state(state["map_run"])
-            return
-        if state["simulation"] is None:             # a state from before initialization
+        self.shaft_speed = float(state["shaft_speed"])
+        self.step_results = {name: float(state["step_results"][name]) for name in STEP_RESULTS}
+        self.map_values = {name: float(value) for name, value in state["map_values"].items()}
+        self.warned_revolution = state["warned_revolution"]
+        kind = "map" if state["map_run"] is not None else "detailed" if state["simulation"] is not None else None
+        built = "map" if self.map_run is not None else "detailed" if self.simulation is not None else None
+        if kind is None:                            # a state from before initialization
             self.simulation = self.map_run = None
+            self.built_with = None
             return
-        if self.simulation is None:
-            self.initialize()
-        self.simulation.set_state(state["simulation"])
+        if kind != built or self.built_with != parameters:
+            self._build(CompressorParameters(**{name: parameters[name] for name, _, _ in declarations()}), 0.0)
+        if kind == "map":
+            saved = state["map_run"]
+            if set(saved) != set(self.map_run.get_state()):
+                raise ValueError("the state's periodic-map run is not this model's")
+            self.map_run.set_state({name: float(value) for name, value in saved.items()})
+            return
+        compressor_state.restore_simulation(self.simulation, state["simulation"])
+
+
+def _column_getter(owner, name, column):
+    """The end-of-step value of an output column (the instance is held weakly: no reference cycle)."""
+    def value():
+        if owner.map_run is not None:
+            return owner.map_values.get(name, 0.0)
+        return float(owner.simulation.last_output[column]) if owner.simulation is not None else 0.0
+    return value
+
+
+def _figure_getter(owner, declared):
+    return lambda: owner.figure(declared)

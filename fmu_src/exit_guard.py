@@ -24,8 +24,11 @@ _registered: set[Path] = set()
 
 
 def binary_path(resources: str | os.PathLike, model_identifier: str) -> Path:
-    """The FMU's shared library next to its resources folder (binaries/linux64/<model>.so)."""
-    return Path(resources).resolve().parent / "binaries" / "linux64" / f"{model_identifier}.so"
+    """pythonfmu's shared library of the FMU next to its resources folder: binaries/linux64/<model>_pythonfmu.so
+    behind the status shim (fmu_src/status_shim.py), else binaries/linux64/<model>.so."""
+    binaries = Path(resources).resolve().parent / "binaries" / "linux64"
+    behind_shim = binaries / f"{model_identifier}_pythonfmu.so"
+    return behind_shim if behind_shim.is_file() else binaries / f"{model_identifier}.so"
 
 
 def release_at_exit(resources: str | os.PathLike | None, model_identifier: str) -> None:

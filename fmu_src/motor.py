@@ -11,9 +11,10 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
 from rotary_vane.mechanics.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
+from rotary_vane.mechanics.parameters import short_repr
 from rotary_vane.mechanics.speed import RPM
 
-from .slave import GuardedSlave
+from .slave import GuardedSlave, StepFailed
 from .variables import RealVariable, declared_parameter, output
 
 MAX_SUBSTEPS = 1_000_000                      # RK4 substeps in one communication step (about 4 s of wall time)
@@ -22,27 +23,25 @@ MAX_SUBSTEPS = 1_000_000                      # RK4 substeps in one communicatio
 # ------------------------------------------------------------------------------------------------------------
 # The FMI slave.
 
-def _number(unit, default, minimum, maximum, description, *, exclusive_minimum=False, integer=False):
-    return dict(unit=unit, default=default, min=minimum, max=maximum, exclusive_min=exclusive_minimum,
-                integer=integer, description=description)
+def _number(unit, default, minimum, maximum, description, *, integer=False):
+    """A numeric parameter with its unit and closed range [minimum, maximum] (FMI min/max are inclusive)."""
+    return dict(unit=unit, default=default, min=minimum, max=maximum, integer=integer, description=description)
 
 
 PARAMETERS = {
     "motor_type": dict(unit="", default="induction", choices=MOTOR_TYPES,
                        description="motor model: Kloss steady-state induction motor or DC motor with armature "
                                    "circuit"),
-    "rated_power": _number("W", 1500.0, 0.0, 1e7, "induction: rated (nameplate) mechanical power P_r",
-                           exclusive_minimum=True),
-    "rated_speed": _number("rpm", 1440.0, 0.0, 1e5, "induction: rated speed n_r, below the synchronous speed "
-                                                    "60 f/p", exclusive_minimum=True),
-    "supply_frequency": _number("Hz", 50.0, 0.0, 1000.0, "induction: supply frequency f", exclusive_minimum=True),
+    "rated_power": _number("W", 1500.0, 1.0, 1e7, "induction: rated (nameplate) mechanical power P_r"),
+    "rated_speed": _number("rpm", 1440.0, 1.0, 1e5, "induction: rated speed n_r, below the synchronous speed "
+                                                    "60 f/p"),
+    "supply_frequency": _number("Hz", 50.0, 0.1, 1000.0, "induction: supply frequency f"),
     "pole_pairs": _number("1", 2, 1, 50, "induction: number of pole pairs p", integer=True),
-    "breakdown_torque_ratio": _number("1", 2.5, 1.0, 10.0, "induction: breakdown torque / rated torque "
-                                                           "k = T_b/T_r", exclusive_minimum=True),
-    "armature_resistance": _number("Ohm", 0.3, 0.0, 1e3, "dc: armature resistance R", exclusive_minimum=True),
-    "armature_inductance": _number("H", 1e-3, 0.0, 10.0, "dc: armature inductance L", exclusive_minimum=True),
-    "torque_constant": _number("N.m/A", 0.28, 0.0, 100.0, "dc: torque constant K (= back-emf constant in V.s/rad)",
-                               exclusive_minimum=True),
+    "breakdown_torque_ratio": _number("1", 2.5, 1.01, 10.0, "induction: breakdown torque / rated torque "
+                                                           "k = T_b/T_r"),
+    "armature_resistance": _number("Ohm", 0.3, 1e-6, 1e3, "dc: armature resistance R"),
+    "armature_inductance": _number("H", 1e-3, 1e-9, 10.0, "dc: armature inductance L"),
+    "torque_constant": _number("N.m/A", 0.28, 1e-6, 100.0, "dc: torque constant K (= back-emf constant in V.s/rad)"),
     "motor_inertia": _number("kg.m2", 4.0e-3, 0.0, 1e3, "moment of inertia of the motor rotor J_motor"),
     "load_inertia": _number("kg.m2", 5.5e-4, 0.0, 1e3, "moment of inertia of the driven load on the shaft J_load "
                                                        "(the compressor's rotor_inertia; then give the compressor "
@@ -71,15 +70,15 @@ def check_parameter(name, value, meta):
     """Raise ValueError naming the parameter, its value and the allowed values or range."""
     if "choices" in meta:
         if value not in meta["choices"]:
-            raise ValueError(f"parameter '{name}' = {value!r} is invalid: allowed one of {', '.join(meta['choices'])}")
+            raise ValueError(f"parameter '{name}' = {short_repr(value)} is invalid: allowed one of "
+                             f"{', '.join(meta['choices'])}")
         return
     unit = "" if meta["unit"] == "1" else f" {meta['unit']}"
-    low = "(" if meta["exclusive_min"] else "["
-    allowed = f"{'an integer' if meta['integer'] else 'a finite value'} in {low}{meta['min']:g}, {meta['max']:g}]{unit}"
+    allowed = f"{'an integer' if meta['integer'] else 'a finite value'} in [{meta['min']:g}, {meta['max']:g}]{unit}"
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
             or (meta["integer"] and value != int(value)) or value > meta["max"] \
-            or value < meta["min"] or (meta["exclusive_min"] and value == meta["min"]):
-        raise ValueError(f"parameter '{name}' = {value!r}{unit} is out of range: allowed {allowed}")
+            or value < meta["min"]:
+        raise ValueError(f"parameter '{name}' = {short_repr(value)}{unit} is out of range: allowed {allowed}")
 
 
 class MotorSlave(GuardedSlave):
@@ -108,7 +107,7 @@ class MotorSlave(GuardedSlave):
             setattr(self, name, meta["default"])
             self.register_variable(declared_parameter(name, meta))
         for name, (unit, text) in OUTPUTS.items():
-            self.register_variable(output(name, unit, text, getter=lambda name=name: self._output(name)))
+            self.register_variable(output(name, unit, text, getter=lambda name=name, owner=self.owner: owner._output(name)))
 
     def _output(self, name):
         if self.model is None and name == "shaft_speed":
@@ -127,37 +126,40 @@ class MotorSlave(GuardedSlave):
             if not self.rated_speed < synchronous_rpm:
                 raise ValueError(f"parameter 'rated_speed' = {self.rated_speed!r} rpm is out of range: allowed "
                                  f"(0, {synchronous_rpm:g}) rpm, below the synchronous speed 60 f/p")
+        self._build_model()
+        self.time = 0.0
+        self.state = (self.initial_speed * RPM, 0.0, 0.0, 0.0, 0.0)
+        self._update_outputs()
+
+    def _build_model(self):
+        """The motor model of the current (validated) parameters."""
+        inertia = self.motor_inertia + self.load_inertia
+        if self.motor_type == "induction":
             self.model = InductionMotor.from_nameplate(self.rated_power, self.rated_speed * RPM,
                                                        self.supply_frequency, self.pole_pairs,
                                                        self.breakdown_torque_ratio, inertia)
         else:
             self.model = DcMotor(self.armature_resistance, self.armature_inductance, self.torque_constant, inertia)
         self.max_substep = self.model.substep()
-        self.time = 0.0
-        self.state = (self.initial_speed * RPM, 0.0, 0.0, 0.0, 0.0)
-        self._update_outputs()
 
-    def advance(self, time, step_size):
-        if abs(time - self.time) > 1e-9 * max(1.0, abs(time)):
-            return self.refuse(f"communication point t = {time + self.start_time!r} s does not continue the "
-                               f"model time {self.time + self.start_time!r} s")
-        substeps = max(1, math.ceil(step_size / self.max_substep))
-        if substeps > MAX_SUBSTEPS:
-            return self.refuse(f"communication step size = {step_size!r} s is too large: allowed up to "
-                               f"{MAX_SUBSTEPS * self.max_substep:g} s ({MAX_SUBSTEPS} RK4 substeps of at most "
-                               f"{self.max_substep:g} s)")
+    def input_error(self):
         for name, (unit, _, limit, _) in INPUTS.items():
             value = getattr(self, name)
             if not (math.isfinite(value) and abs(value) <= limit):
-                return self.refuse(f"input '{name}' = {value!r} {unit} is invalid: allowed a finite value in "
-                                   f"[{-limit:g}, {limit:g}] {unit}")
+                return f"input '{name}' = {value!r} {unit} is invalid: allowed a finite value in [{-limit:g}, {limit:g}] {unit}"
+        return None
+
+    def advance(self, end_time, step_size):
+        substeps = max(1, math.ceil(step_size / self.max_substep))
+        if substeps > MAX_SUBSTEPS:
+            raise StepFailed(f"communication step size = {step_size!r} s is too large: allowed up to "
+                             f"{MAX_SUBSTEPS * self.max_substep:g} s ({MAX_SUBSTEPS} RK4 substeps of at most "
+                             f"{self.max_substep:g} s)")
         state = rk4(self.model, self.state, step_size, substeps, self.load_torque, self.voltage)
         if not all(math.isfinite(value) for value in state):
-            return self.refuse(f"the motor state became non-finite at t = {time + step_size + self.start_time!r} "
-                               f"s: {state}; step discarded")
-        self.state, self.time = state, time + step_size           # the host's time: no drift of sums
+            raise StepFailed(f"the motor state became non-finite at t = {end_time + self.start_time!r} s: {state}")
+        self.state, self.time = state, end_time
         self._update_outputs()
-        return True
 
     def _update_outputs(self):
         y, values = self.state, self.outputs
@@ -170,12 +172,24 @@ class MotorSlave(GuardedSlave):
 
     # state --------------------------------------------------------------------------------------------------
     def snapshot(self):
-        return dict(model=self.model, max_substep=self.max_substep, time=self.time, state=self.state,
-                    outputs=dict(self.outputs), failure=self.failure,
+        return dict(parameters={name: getattr(self, name) for name in PARAMETERS}, built=self.model is not None,
+                    time=self.time, state=list(self.state), outputs=dict(self.outputs),
                     inputs={name: getattr(self, name) for name in INPUTS})
 
     def restore(self, state):
-        for name in ("model", "max_substep", "time", "state", "outputs", "failure"):
-            setattr(self, name, state[name])
-        for name, value in state["inputs"].items():
+        """Restore a state; the motor model is rebuilt from the state's parameters."""
+        parameters, values = state["parameters"], [float(value) for value in state["state"]]
+        if set(parameters) != set(PARAMETERS) or len(values) != 5:
+            raise ValueError("the state is not this motor's")
+        if state["built"]:
+            for name, meta in PARAMETERS.items():
+                check_parameter(name, parameters[name], meta)
+        for name, value in parameters.items():
             setattr(self, name, value)
+        for name in INPUTS:
+            setattr(self, name, float(state["inputs"][name]))
+        self.model = None
+        if state["built"]:
+            self._build_model()
+        self.time, self.state = float(state["time"]), tuple(values)
+        self.outputs = {name: float(state["outputs"][name]) for name in OUTPUTS}

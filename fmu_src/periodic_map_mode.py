@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 
 from rotary_vane.mechanics.outputs import STEP, fmu_outputs
+from rotary_vane.mechanics.parameters import short_repr
 from rotary_vane.mechanics.periodic_map import MapSettings, build_map, cache_key, default_cache_dir
 from rotary_vane.mechanics.regions import REGION_COUNT
 from rotary_vane.mechanics.speed import RPM
@@ -84,6 +85,7 @@ class PeriodicMapRun:
 
 def check_fidelity(value) -> str:
     if value not in FIDELITIES:
-        raise ValueError(f"parameter 'fidelity' = {value!r} is invalid: allowed one of {', '.join(FIDELITIES)}")
+        raise ValueError(f"parameter 'fidelity' = {short_repr(value)} is invalid: allowed one of "
+                         f"{', '.join(FIDELITIES)}")
     return value
 

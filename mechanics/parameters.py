@@ -24,10 +24,10 @@ FRICTION_MODELS = ("threlfall", "ambrosio")
 PRESSURE_MODELS = ("polytropic", "ideal_gas_table", "real_gas")
 
 
-def _number(default, unit, minimum, maximum, description, *, exclusive_minimum=False, integer=False):
+def _number(default, unit, minimum, maximum, description, *, integer=False):
     """A numeric parameter with its unit, allowed closed range [minimum, maximum] and description."""
     return field(default=default, metadata=dict(
-        unit=unit, min=minimum, max=maximum, exclusive_min=exclusive_minimum, integer=integer,
+        unit=unit, min=minimum, max=maximum, integer=integer,
         description=description))
 
 
@@ -50,7 +50,7 @@ class CompressorParameters:
                          integer=True)
     displacement_law: str = _choice("harmonic", DISPLACEMENT_LAWS,
                                     "vane-tip-centre displacement law s(theta) of docs/model.md §2.3")
-    stroke: float = _number(5.0e-3, "m", 0.0, 20e-3, "vane stroke h = lobe height", exclusive_minimum=True)
+    stroke: float = _number(5.0e-3, "m", 0.1e-3, 20e-3, "vane stroke h = lobe height")
     bottom_dwell: float = _number(0.0, "rad", 0.0, 1.0, "bottom (valley) dwell angle beta0, harmonic_dwell law only")
     top_dwell: float = _number(0.0, "rad", 0.0, 1.0, "top dwell angle beta1, harmonic_dwell law only")
     rotor_radius: float = _number(30.0e-3, "m", 5e-3, 0.2, "rotor radius R_r")
@@ -65,16 +65,14 @@ class CompressorParameters:
     vane_density: float = _number(7850.0, "kg/m3", 100.0, 25000.0, "vane material density")
     rotor_inertia: float = _number(5.5e-4, "kg.m2", 0.0, 10.0, "rotor moment of inertia J2 about its axis")
     youngs_modulus: float = _number(207e9, "Pa", 1e8, 1e12, "Young's modulus of all bodies")
-    poisson_ratio: float = _number(0.30, "1", 0.0, 0.5, "Poisson's ratio of all bodies", exclusive_minimum=False)
-    restitution: float = _number(0.9, "1", 0.0, 1.0, "coefficient of restitution c_e of the Lankarani-Nikravesh law",
-                                 exclusive_minimum=True)
+    poisson_ratio: float = _number(0.30, "1", 0.0, 0.5, "Poisson's ratio of all bodies")
+    restitution: float = _number(0.9, "1", 0.1, 1.0, "coefficient of restitution c_e of the Lankarani-Nikravesh law")
     onset_velocity_floor: float = _number(0.01, "m/s", 1e-6, 10.0, "floor v_floor on the stored impact velocity")
     stiffness_model: str = _choice("hertz_point", STIFFNESS_MODELS,
                                    "contact stiffness: Hertz point contact (option P) or Johnson line contact (L)")
     friction_model: str = _choice("threlfall", FRICTION_MODELS, "regularised Coulomb friction law of docs/model.md §5.3")
     friction_coefficient: float = _number(0.085, "1", 0.0, 2.0, "Coulomb friction coefficient mu, all contacts")
-    friction_velocity: float = _number(1e-3, "m/s", 1e-7, 1.0, "regularisation velocity v_0 of the friction law",
-                                       exclusive_minimum=True)
+    friction_velocity: float = _number(1e-3, "m/s", 1e-7, 1.0, "regularisation velocity v_0 of the friction law")
     friction_velocity_full: float = _number(1e-3, "m/s", 1e-7, 1.0,
                                             "velocity v_1 of full sliding friction (ambrosio law only)")
     # gas (docs/model.md §6-§7)
@@ -82,24 +80,20 @@ class CompressorParameters:
                                   "chamber gas: Level 0 polytropic table, Level 0.5 ideal-gas table, or Level 1 "
                                   "real-gas chambers coupled to the vane (docs/model.md §6.1, §7)")
     fluid: str = _fluid("R134a", "working fluid, any pure or pseudo-pure CoolProp fluid name (real_gas only)")
-    suction_pressure: float = _number(0.2928e6, "Pa", 1e3, 20e6, "suction pressure p_s", exclusive_minimum=True)
+    suction_pressure: float = _number(0.2928e6, "Pa", 1e3, 20e6, "suction pressure p_s")
     suction_temperature: float = _number(283.15, "K", 150.0, 600.0, "suction temperature T_s")
     discharge_pressure: float = _number(1.3179e6, "Pa", 1e3, 40e6, "discharge (and back-chamber) pressure p_d")
     polytropic_exponent: float = _number(1.10, "1", 1.0, 2.0, "polytropic exponent n_p of the Level 0 model")
     suction_close_angle: float = _number(math.radians(10.0), "rad", 0.0, 1.0,
                                          "lobe phase phi_sc at which the leading chamber closes to suction")
-    dead_volume: float = _number(0.05e-6, "m3", 0.0, 1e-3, "dead volume V_dead of the leading chamber",
-                                 exclusive_minimum=True)
-    suction_port_area: float = _number(30e-6, "m2", 0.0, 1e-2, "suction port area A_s (real_gas only; the port "
-                                       "spans lobe phases [0, suction_close_angle])", exclusive_minimum=True)
-    suction_port_coefficient: float = _number(0.7, "1", 0.0, 1.0, "discharge coefficient of the suction port",
-                                              exclusive_minimum=True)
-    discharge_port_area: float = _number(20e-6, "m2", 0.0, 1e-2, "discharge port area A_d", exclusive_minimum=True)
-    discharge_port_coefficient: float = _number(0.7, "1", 0.0, 1.0, "discharge coefficient of the discharge port",
-                                                exclusive_minimum=True)
+    dead_volume: float = _number(0.05e-6, "m3", 1e-9, 1e-3, "dead volume V_dead of the leading chamber")
+    suction_port_area: float = _number(30e-6, "m2", 1e-7, 1e-2, "suction port area A_s (real_gas only; the port "
+                                       "spans lobe phases [0, suction_close_angle])")
+    suction_port_coefficient: float = _number(0.7, "1", 0.1, 1.0, "discharge coefficient of the suction port")
+    discharge_port_area: float = _number(20e-6, "m2", 1e-7, 1e-2, "discharge port area A_d")
+    discharge_port_coefficient: float = _number(0.7, "1", 0.1, 1.0, "discharge coefficient of the discharge port")
     leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient C_d,leak of the clearance gaps")
-    heat_capacity_ratio: float = _number(1.10, "1", 1.0, 2.0, "ideal-gas heat capacity ratio k (Level 0.5)",
-                                         exclusive_minimum=True)
+    heat_capacity_ratio: float = _number(1.10, "1", 1.01, 2.0, "ideal-gas heat capacity ratio k (Level 0.5)")
     gas_constant: float = _number(81.5, "J/(kg.K)", 1.0, 5000.0, "specific gas constant R (Level 0.5)")
     # numerics (docs/model.md §8)
     integrator: str = _choice("dopri5", INTEGRATORS,
@@ -168,14 +162,19 @@ def allowed_range_text(metadata: dict[str, Any]) -> str:
         return "one of " + ", ".join(metadata["choices"])
     if metadata.get("fluid"):
         return "a CoolProp fluid name"
-    left = "(" if metadata["exclusive_min"] else "["
     kind = "integer in " if metadata["integer"] else ""
     unit = "" if metadata["unit"] == "1" else metadata["unit"]
-    return f"{kind}{left}{metadata['min']:g}, {metadata['max']:g}] {unit}".rstrip()
+    return f"{kind}[{metadata['min']:g}, {metadata['max']:g}] {unit}".rstrip()
+
+
+def short_repr(value, limit: int = 80) -> str:
+    """repr(value), cut to `limit` characters: a message never echoes a long bad value in full."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def _reject(name, value, allowed):
-    raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed {allowed}")
+    raise ValueError(f"parameter '{name}' = {short_repr(value)} is out of range: allowed {allowed}")
 
 
 def _validate_declared_ranges(params: CompressorParameters) -> None:
@@ -193,7 +192,8 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
                 try:
                     Fluid(value)
                 except ValueError as error:
-                    raise ValueError(f"parameter '{name}' = {value!r} is not valid: {error}") from None
+                    raise ValueError(f"parameter '{name}' = {short_repr(value)} is not valid: "
+                                     f"{str(error).replace(repr(value), short_repr(value))}") from None
             continue
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             _reject(name, value, allowed)
@@ -201,8 +201,7 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
             _reject(name, value, allowed)
         if not math.isfinite(value):
             _reject(name, value, allowed)
-        below = value <= meta["min"] if meta["exclusive_min"] else value < meta["min"]
-        if below or value > meta["max"]:
+        if not meta["min"] <= value <= meta["max"]:
             _reject(name, value, allowed)
 
 
@@ -234,13 +233,30 @@ def _validate_relations(params: CompressorParameters) -> None:
     bottom_radius_at_full_stroke = p.base_radius + p.stroke - straight_length
     shortest = p.base_radius + p.stroke - p.mouth_radius + p.vane_thickness + p.tip_radius
     if bottom_radius_at_full_stroke > p.mouth_radius - p.vane_thickness:
+        if p.vane_length == _declared("vane_length")[0] and p.stroke != _declared("stroke")[0]:
+            longest_stroke = p.mouth_radius - p.vane_thickness + straight_length - p.base_radius
+            _reject("stroke", p.stroke, f"<= {longest_stroke:g} m (at least one vane thickness of the vane_length = "
+                                        f"{p.vane_length:g} m engaged in the slot at full stroke)")
         _reject("vane_length", p.vane_length,
                 f">= {shortest:g} m (at least one vane thickness engaged in the slot at full stroke "
                 f"{p.stroke:g} m)")
     bottom_radius_at_rest = p.base_radius - straight_length
     if bottom_radius_at_rest <= p.slot_bottom_radius:
+        # name the parameter that was changed: a long vane_length makes any slot_bottom_radius impossible
+        longest = p.base_radius - p.slot_bottom_radius + p.tip_radius
+        default, meta = _declared("slot_bottom_radius")
+        if bottom_radius_at_rest <= meta["min"] or p.slot_bottom_radius == default:
+            _reject("vane_length", p.vane_length,
+                    f"< {longest:g} m (the vane bottom at zero stroke must clear the slot bottom at slot_bottom_radius "
+                    f"= {p.slot_bottom_radius:g} m)")
         _reject("slot_bottom_radius", p.slot_bottom_radius,
-                f"< {bottom_radius_at_rest:g} m (the vane bottom at zero stroke must clear the slot bottom)")
+                f"< {bottom_radius_at_rest:g} m (the vane bottom at zero stroke, with vane_length = "
+                f"{p.vane_length:g} m, must clear the slot bottom)")
+
+
+def _declared(name: str):
+    """(default, metadata) of one parameter."""
+    return next((default, meta) for field_name, default, meta in declarations() if field_name == name)
 
 
 def validate(params: CompressorParameters) -> None:

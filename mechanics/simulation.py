@@ -302,15 +302,17 @@ class Simulation:
 
     # save / restore ---------------------------------------------------------------------------------------
     def get_state(self) -> SimulationState:
-        """A deep copy of everything the continuation depends on."""
-        return SimulationState(self.time, *(np.array(getattr(self, name), copy=True) for name in ARRAY_FIELDS))
+        """A copy of everything the continuation depends on (the recent lobe records are shared: that array is
+        replaced when records arrive, never changed in place)."""
+        return SimulationState(self.time, *(self.recent_records if name == "recent_records" else
+                                            np.array(getattr(self, name), copy=True) for name in ARRAY_FIELDS))
 
     def set_state(self, saved: SimulationState) -> None:
         """Continue from a state returned by `get_state` (the history is not rewound)."""
         self.time = saved.time
         for name in ARRAY_FIELDS:
             if name == "recent_records":
-                self.recent_records = np.array(saved.recent_records, copy=True)
+                self.recent_records = np.asarray(saved.recent_records, dtype=np.float64)
             else:
                 getattr(self, name)[...] = getattr(saved, name)
         groups = revolution_groups(self.recent_records, self.params.lobes)

@@ -231,7 +231,13 @@ class Host:
         return rows
 
     def close(self) -> None:
-        self.fmu.terminate()
+        """fmi2Terminate (refused with fmi2Error in the error state, where only fmi2FreeInstance is left) and
+        fmi2FreeInstance."""
+        from fmpy.fmi1 import FMICallException
+        try:
+            self.fmu.terminate()
+        except FMICallException:
+            pass
         self.fmu.freeInstance()
 
     # trace -----------------------------------------------------------------------------------------------

@@ -155,13 +155,14 @@ except harness.HarnessError as error:
 
 def test_a_refused_run_fails_loudly_with_the_fmus_message(built_fmus, env):
     """A parameter set the FMU refuses at initialization (a stroke the default vane cannot follow; within the
-    modelDescription's range, so only the FMU can tell): fmpy stops without raising; the harness raises."""
+    modelDescription's range, so only the FMU can tell): fmpy raises on fmi2Error; the harness turns it into its
+    error with the FMU's message, which names the parameter the user set."""
     script = Template(REFUSED_RUN).substitute(examples=repr(str(EXAMPLES)),
                                               fmu=repr(str(built_fmus / "RotaryVaneCompressor.fmu")))
     run = H.run_host(script, env=env).check()
     message = run.result["error"]
-    assert "stopped at t = 0 s, before the stop time 0.01 s" in message
-    assert "parameter 'vane_length'" in message and "allowed >=" in message
+    assert "fmi2ExitInitializationMode failed with status 3 (error)" in message
+    assert "parameter 'stroke' = 0.02 is out of range: allowed <=" in message, message
 
 
 # startup --------------------------------------------------------------------------------------------------------

@@ -154,13 +154,20 @@ def test_c_host_runs_the_fmu_like_fmpy(c_host, c_host_fmu, libpython, fmpy_refer
 
 
 def test_c_host_prints_the_fmu_messages(c_host, c_host_fmu, libpython):
-    """A negative speed: every step is refused with fmi2Discard, and the FMU's message reaches the C logger."""
+    """A negative speed as the start value: initialization is refused with fmi2Error (through the FMU's status
+    shim, fmu_src/c/fmi2_status_shim.c), the next call is refused in the FMI error state, and the FMU's messages
+    reach the C logger."""
     process = run_host(c_host, c_host_fmu, libpython, speed=-5.0, steps=3)
     assert process.returncode == 3, describe(process)
     result = parse_result(process.stdout)
-    assert result["worst_status"] == 2 and result["steps"] == 0
-    assert any("fmi2DoStep -> DISCARD" in line for line in result["not_ok_calls"]), result["not_ok_calls"]
+    assert result["worst_status"] == 3 and result["steps"] == 0
+    assert any("fmi2ExitInitializationMode -> ERROR" in line for line in result["not_ok_calls"]), \
+        result["not_ok_calls"]
+    assert any("fmi2SetReal(shaft_speed) -> ERROR" in line for line in result["not_ok_calls"]), \
+        result["not_ok_calls"]
     assert any("'shaft_speed' = -5.0 rpm" in line for line in result["error_logs"]), process.stdout
+    assert any("not allowed in the error state" in line and "'shaft_speed' = -5.0 rpm" in line
+               for line in result["error_logs"]), process.stdout
 
 
 def test_c_host_exits_normally(c_host, c_host_fmu, libpython):

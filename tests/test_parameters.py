@@ -131,7 +131,7 @@ def test_unknown_choice_rejected(name, value):
 
 
 def test_out_of_range_values_rejected():
-    assert_rejected("restitution", 0.0)           # exclusive minimum
+    assert_rejected("restitution", 0.05)
     assert_rejected("restitution", 1.5)
     assert_rejected("poisson_ratio", 0.6)
     assert_rejected("stroke", 0.0)
@@ -186,3 +186,37 @@ def test_simulation_rejects_invalid_arguments():
         Simulation(CompressorParameters(), constant_speed(1500.0), initial_angle=math.nan)
     with pytest.raises(ValueError, match="speed"):
         Simulation(CompressorParameters(), speed=1500.0)
+
+
+@pytest.mark.parametrize("name", [n for n, _, meta in declarations() if "min" in meta])
+def test_declared_bounds_are_inclusive(name):
+    """FMI min and max are inclusive: the range check accepts a value exactly at either bound (the checks that
+    relate several parameters are tested above)."""
+    from rotary_vane.mechanics.parameters import _validate_declared_ranges
+    meta = dict((n, m) for n, _, m in declarations())[name]
+    for bound in (meta["min"], meta["max"]):
+        candidate = object.__new__(CompressorParameters)          # the fields only, not yet validated
+        for key, default, _ in declarations():
+            object.__setattr__(candidate, key, bound if key == name else default)
+        _validate_declared_ranges(candidate)
+
+
+def test_a_relation_names_the_parameter_that_was_changed():
+    """A vane too long for the default slot bottom is reported against vane_length with a bound it can meet (the
+    vane bottom at zero stroke, R0 - (l_v - t/2), must stay above r_sb: l_v < R0 - r_sb + t/2 = 28 - 9.5 + 2 mm);
+    a slot bottom too high for the default vane against slot_bottom_radius (r_sb < 28 - 16 = 12 mm)."""
+    message = assert_rejected("vane_length", 0.03)
+    assert "allowed < 0.0205 m" in message and "'slot_bottom_radius'" not in message, message
+    message = assert_rejected("slot_bottom_radius", 0.02)
+    assert "allowed < 0.012 m" in message, message
+    # a stroke the default vane cannot follow: R0 + h - (l_v - t/2) <= R_m - t, R_m = sqrt(30^2 - 2^2) mm
+    message = assert_rejected("stroke", 0.02)
+    longest = (30e-3 ** 2 - 2e-3 ** 2) ** 0.5 - 4e-3 + 16e-3 - 28e-3
+    assert f"allowed <= {longest:g} m" in message and "'vane_length'" not in message, message
+
+
+def test_a_long_bad_value_is_echoed_cut_to_a_readable_length():
+    with pytest.raises(ValueError) as info:
+        CompressorParameters(displacement_law="x" * 100_000)
+    message = str(info.value)
+    assert len(message) < 300 and "(100002 characters)" in message and "'displacement_law'" in message, message
