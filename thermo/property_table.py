@@ -439,9 +439,8 @@ def envelope_for(fluid: Fluid, suction_pressure, suction_temperature, discharge_
     temperature_min = max(fluid.minimum_temperature, expanded - ENVELOPE_COLD_MARGIN,
                           -math.inf if low_dew is None else low_dew)
     temperature_max = min(fluid.maximum_temperature, compressed + ENVELOPE_HOT_MARGIN)
-    high_dew = fluid.saturation_temperature(high_pressure)
     coldest_at_high_pressure = max(temperature_min, compressed - ENVELOPE_COLD_MARGIN,
-                                   (fluid.critical_temperature if high_dew is None else high_dew) + superheat_margin)
+                                   fluid.dome_temperature(high_pressure) + superheat_margin)
     return Envelope(temperature_min, temperature_max, fluid.density(temperature_max, low_pressure),
                     fluid.density(coldest_at_high_pressure, high_pressure), float(superheat_margin))
 
