@@ -2,10 +2,11 @@
 
 - Level 0 / 0.5 (`polytropic`, `ideal_gas_table`): the p_L(phase) table of mechanics.pressure_source; the chamber
   model gets placeholders it never reads.
-- Level 1 (`real_gas`): the fluid's (T, ln rho) property table for the operating envelope (thermo.property_table,
-  cached on disk), the chamber model's constants (thermo.chamber_model) with the suction state consistent with
-  that table and the ideal-gas k and R of the nozzle law, and the references of the per-revolution figures
-  (thermo.gas_reference). CoolProp itself is imported on first use (thermo.fluid.coolprop), i.e. for real gas only.
+- Level 1 (`real_gas`): the operating point (thermo.operating_point: suction state, envelope, ideal-gas k and R of
+  the nozzle law, references of the per-revolution figures), the fluid's (T, ln rho) property table for its
+  envelope (thermo.property_table) and the chamber model's constants (thermo.chamber_model) with the suction state
+  consistent with that table. Both the point and the table are cached on disk; CoolProp is imported only to
+  compute what is not cached (docs/model.md §7.1).
 """
 from __future__ import annotations
 
@@ -14,10 +15,9 @@ from typing import NamedTuple
 import numpy as np
 
 from rotary_vane.thermo.chamber_model import chamber_constants
-from rotary_vane.thermo.fluid import Fluid
 from rotary_vane.thermo.gas_reference import GasReference
-from rotary_vane.thermo.property_table import (PropertyTable, envelope_for, property_table_for, table_arrays,
-                                              table_properties)
+from rotary_vane.thermo.operating_point import operating_point_for
+from rotary_vane.thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties
 
 from .geometry import lobe_area
 from .parameters import CompressorParameters
@@ -63,13 +63,10 @@ def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCou
         enthalpy = p.heat_capacity_ratio * p.gas_constant / (p.heat_capacity_ratio - 1.0) * p.suction_temperature
         return GasCoupling(leading_pressure_table(p, operating_speed), table_arrays(_placeholder_properties()),
                            _constants(p, density, enthalpy, p.heat_capacity_ratio, p.gas_constant), density, None)
-    fluid = Fluid(p.fluid)
-    table = property_table_for(fluid, envelope_for(fluid, p.suction_pressure, p.suction_temperature,
-                                                   p.discharge_pressure))
-    density = fluid.density(p.suction_temperature, p.suction_pressure)
-    enthalpy = table_properties(p.suction_temperature, density, table)[1]
-    reference = GasReference(fluid, p.suction_temperature, density, p.discharge_pressure,
-                             p.lobes * p.axial_length * lobe_area(p))
+    point = operating_point_for(p.fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
+    table = property_table_for(point, point.envelope)
+    enthalpy = table_properties(p.suction_temperature, point.suction_density, table)[1]
+    reference = GasReference(point, p.lobes * p.axial_length * lobe_area(p))
     return GasCoupling(np.zeros(2), table_arrays(table),
-                       _constants(p, density, enthalpy, fluid.ideal_gas_exponent(p.suction_temperature),
-                                  fluid.gas_constant), density, reference)
+                       _constants(p, point.suction_density, enthalpy, point.ideal_gas_exponent, point.gas_constant),
+                       point.suction_density, reference)

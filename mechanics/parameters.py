@@ -13,7 +13,8 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
-from rotary_vane.thermo.fluid import Fluid, check_operating_point
+from rotary_vane.thermo.fluid import UnknownFluidError
+from rotary_vane.thermo.operating_point import operating_point_for
 
 from .geometry import check_stator_regularity
 
@@ -193,15 +194,9 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
             if value not in meta["choices"]:
                 _reject(name, value, allowed)
             continue
-        if meta.get("fluid"):
+        if meta.get("fluid"):                             # its CoolProp check: _validate_relations
             if not isinstance(value, str) or not value:
                 _reject(name, value, allowed)
-            if params.pressure_model == "real_gas":       # only a real-gas run asks CoolProp (importing it: ~2 s)
-                try:
-                    Fluid(value)
-                except ValueError as error:
-                    raise ValueError(f"parameter '{name}' = {short_repr(value)} is not valid: "
-                                     f"{str(error).replace(repr(value), short_repr(value))}") from None
             continue
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             _reject(name, value, allowed)
@@ -219,8 +214,12 @@ def _validate_relations(params: CompressorParameters) -> None:
     if p.discharge_pressure <= p.suction_pressure:
         _reject("discharge_pressure", p.discharge_pressure,
                 f"greater than suction_pressure = {p.suction_pressure:g} Pa")
-    if p.pressure_model == "real_gas":
-        check_operating_point(Fluid(p.fluid), p.suction_pressure, p.suction_temperature, p.discharge_pressure)
+    if p.pressure_model == "real_gas":       # CoolProp's checks, or a cached point that passed them (no import)
+        try:
+            operating_point_for(p.fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
+        except UnknownFluidError as error:
+            raise ValueError(f"parameter 'fluid' = {short_repr(p.fluid)} is not valid: "
+                             f"{str(error).replace(repr(p.fluid), short_repr(p.fluid))}") from None
     if p.min_step >= p.max_step or p.initial_step > p.max_step:
         _reject("min_step", p.min_step, f"min_step < initial_step <= max_step = {p.max_step:g} s")
     if p.stroke >= p.base_radius:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
+from rotary_vane.thermo.fluid import Fluid
 from rotary_vane.thermo.property_table import describe_status, table_from_arrays, table_status
 
 from .chamber_geometry import sector_table
@@ -240,6 +241,7 @@ class Simulation:
         text = STATUS_TEXT[status]
         if status == GAS_STATE_INVALID and self.gas_reference is not None:
             table = table_from_arrays(*self.gas.properties)
+            fluid = Fluid(self.gas_reference.point.coolprop_name)         # for the exact state near the dome
             volumes = (self.last_output[OUTPUT_INDEX["leading_volume"]],
                        self.last_output[OUTPUT_INDEX["trailing_volume"]])
             for k, (name, temperature, mass) in enumerate((("leading", LEADING_TEMPERATURE, LEADING_MASS),
@@ -249,7 +251,7 @@ class Simulation:
                 code = table_status(temperature_value, density, table)
                 if code != 0:
                     text += "; " + describe_status(code, temperature_value, density, table,
-                                                   fluid=self.gas_reference.fluid,
+                                                   fluid=fluid,
                                                    state=f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})")
         return text
 
