@@ -26,11 +26,15 @@ def property_cache_dir() -> Path:
     return Path(base) / "rotary-vane-compressor" / "properties"
 
 
+NAME_LENGTH = 64           # characters of the name kept in a file name (the hash tells files apart)
+
+
 def cache_path(name: str, key: str, suffix: str, cache_dir=None) -> Path:
     """<cache dir>/<name>-<first 24 hex digits of sha256(key)><suffix>; the cache dir is `cache_dir`, else
-    `property_cache_dir()`, and characters other than letters, digits, '-' and '_' in `name` become '_'."""
+    `property_cache_dir()`; characters other than ASCII letters, digits, '-' and '_' in `name` become '_' and only
+    its first NAME_LENGTH characters are used (a file name has a length limit, the key holds the whole name)."""
     folder = property_cache_dir() if cache_dir is None else Path(cache_dir)
-    safe_name = "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+    safe_name = "".join(c if (c.isascii() and c.isalnum()) or c in "-_" else "_" for c in name[:NAME_LENGTH])
     return folder / f"{safe_name}-{hashlib.sha256(key.encode()).hexdigest()[:24]}{suffix}"
 
 
