@@ -63,6 +63,7 @@ class CompressorSlave(GuardedSlave):
         self.interpolate_speed = True
         self.step_results = dict.fromkeys(STEP_RESULTS, 0.0)
         self.warned_revolution = None                # end time of the last revolution whose NaN figures were reported
+        self.warned_law_excess = False               # the contact-law excess is logged once per run
         self.built_with = None                       # the parameters the model was built with
         self.register_variable(RealVariable(
             "shaft_speed", "rpm", causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
@@ -144,12 +145,14 @@ class CompressorSlave(GuardedSlave):
     def _build(self, params, speed_rpm):
         """The model of `params` at its start (the speed is the input at the start time)."""
         self.simulation = self.map_run = None
+        self.warned_law_excess = False
         self.built_with = self._parameter_values()
         if self.fidelity == "periodic_map":
             self.map_run = PeriodicMapRun(params, self.pressure_table_speed, speed_rpm, self.initial_rotor_angle)
             return
         self.simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed)
+        self.simulation.warn_contact_law = False          # logged once per run by advance()
 
     def input_error(self):
         if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
@@ -174,6 +177,9 @@ class CompressorSlave(GuardedSlave):
         results["shaft_angle"] = simulation.rotor_angle - self.initial_rotor_angle
         if simulation.last_revolution is not last_before:
             self._warn_undefined_figures()
+        if simulation.contact_law_excess > 0.0 and not self.warned_law_excess:
+            self.warned_law_excess = True
+            self.report(simulation.law_excess_text(simulation.contact_law_excess), Fmi2Status.warning)
 
     def _warn_undefined_figures(self):
         """fmi2Warning once per revolution whose figures have no value (a revolution that delivered no gas)."""

@@ -46,14 +46,53 @@ SECTOR_INTERVALS = 2048             # Hermite intervals over half a lobe (error 
 
 
 class ChamberGeometry(NamedTuple):
-    """Geometric volumes of the two chambers (no dead volume) [m^3], their rates and the gap parts of the rates
-    [m^3/s] (docs/model.md §7.2)."""
+    """Geometric volumes of the two chambers (no dead volume) and of the back chamber [m^3], their rates and the gap
+    parts of the rates [m^3/s] (docs/model.md §7.2)."""
     volume_leading: float
     volume_trailing: float
     rate_leading: float
     rate_trailing: float
     gap_leading: float
     gap_trailing: float
+    volume_back: float
+    rate_back: float
+    gap_back: float
+
+
+@kernel
+def _rotor_frame_corner(side, p, m):
+    """(r, eta, dr/dt, deta/dt) of the vane's bottom corner B = G + xi_B e_xi + side (t/2) e_eta in the rotor frame
+    (r = B.e_r, eta = B.e_theta; d e_r/dt = omega e_theta)."""
+    arm_x = m.bottom_face * p.exi_x - side * m.half_thickness * p.exi_y
+    arm_y = m.bottom_face * p.exi_y + side * m.half_thickness * p.exi_x
+    bx, by = p.gx + arm_x, p.gy + arm_y
+    vx, vy = p.vx - p.phi_dot * arm_y, p.vy + p.phi_dot * arm_x
+    radius = bx * p.er_x + by * p.er_y
+    across = -bx * p.er_y + by * p.er_x
+    return (radius, across, vx * p.er_x + vy * p.er_y + p.omega * across,
+            -vx * p.er_y + vy * p.er_x - p.omega * radius)
+
+
+@kernel
+def back_chamber(p, m):
+    """(volume, rate) of the back chamber, the slot below the vane (docs/model.md §7.2): in the rotor frame (r, eta)
+    the polygon slot bottom (r_sb, -w/2) -> (r_sb, w/2) -> wall (r_B+, w/2) -> corner B+ -> corner B- ->
+    wall (r_B-, -w/2), whose area is A = -1/2 sum (x_i y_i+1 - x_i+1 y_i) (clockwise in (r, eta)); V = L A and
+    dV/dt = L dA/dt. The wall-to-corner segments are the back chamber's gaps."""
+    half_width = m.half_slot_width
+    r_p, eta_p, dr_p, deta_p = _rotor_frame_corner(1.0, p, m)
+    r_m, eta_m, dr_m, deta_m = _rotor_frame_corner(-1.0, p, m)
+    xs = (m.slot_bottom_radius, m.slot_bottom_radius, r_p, r_p, r_m, r_m)
+    ys = (-half_width, half_width, half_width, eta_p, eta_m, -half_width)
+    dxs = (0.0, 0.0, dr_p, dr_p, dr_m, dr_m)
+    dys = (0.0, 0.0, 0.0, deta_p, deta_m, 0.0)
+    area = 0.0
+    rate = 0.0
+    for i in range(6):
+        j = (i + 1) % 6
+        area -= 0.5 * (xs[i] * ys[j] - xs[j] * ys[i])
+        rate -= 0.5 * (dxs[i] * ys[j] + xs[i] * dys[j] - dxs[j] * ys[i] - xs[j] * dys[i])
+    return m.axial_length * area, m.axial_length * rate
 
 
 class SectorTable(NamedTuple):
@@ -257,5 +296,7 @@ def chamber_geometry(pose, tip, sides, basis, lobe_start, m, table):
     gap_t = m.axial_length * (tip_sweep + sweep_t)
     wall_l = basis.leading.power + p.omega * basis.leading.rotor_moment
     wall_t = basis.trailing.power + p.omega * basis.trailing.rotor_moment
+    volume_back, rate_back = back_chamber(p, m)
+    wall_b = basis.back.power + p.omega * basis.back.rotor_moment
     return ChamberGeometry(m.axial_length * leading, m.axial_length * trailing, wall_l + gap_l, wall_t + gap_t,
-                           gap_l, gap_t)
+                           gap_l, gap_t, volume_back, rate_back, rate_back - wall_b)

@@ -54,11 +54,12 @@ def line_contact_limit(a, b):
 @kernel
 def _line_contact_force(penetration, a, b, force_limit):
     """F in (0, F_s] with F (A - B ln F) = delta < delta_s: Newton in x = ln F, kept inside a shrinking bracket
-    [x_lo, x_hi] on which g(x) = e^x (A - B x) - delta changes sign (g increases there); bisection whenever a Newton
-    step leaves the bracket."""
+    [x_lo, x_hi] on which g(x) = e^x (A - B x) - delta changes sign (g increases on x < A/B - 1, for any sign of A);
+    bisection whenever a Newton step leaves the bracket."""
     x_high = math.log(force_limit)
-    x_low = min(math.log(penetration / a) - 40.0, x_high - 1.0)
-    x = min(max(math.log(penetration / a), x_low), x_high)
+    guess = math.log(penetration / (abs(a) + b))    # F ~ delta/|A - B x|; A < 0 for a nearly conformal pair
+    x_low = min(guess - 40.0, x_high - 1.0)         # g(x_low) < 0: e^x (|A| + B |x|) < delta there
+    x = min(max(guess, x_low), x_high)
     for _ in range(200):
         force = math.exp(x)
         residual = force * (a - b * x) - penetration

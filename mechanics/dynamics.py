@@ -26,10 +26,12 @@ from .layout import (ANGULAR_VELOCITY, ANGLE, GAS_BLOCK, GAS_STATE_INVALID, MEM_
                      MEM_LOBE_START, TIP_ON_FLAT_FACE, VANE_BOTTOMED, VX, VY, WORK_DAMPING, WORK_FRICTION, WORK_IN,
                      WORK_OUT, X, Y)
 from .machine import REAL_GAS_MODEL
-from .outputs import O, REAL_GAS_COLUMNS
+from .outputs import O, OUTPUT_NAMES, REAL_GAS_COLUMNS
 
 REAL_GAS_FIRST_COLUMN = O.leading_temperature
 REAL_GAS_COLUMN_COUNT = len(REAL_GAS_COLUMNS)
+assert REAL_GAS_COLUMNS == OUTPUT_NAMES[REAL_GAS_FIRST_COLUMN:REAL_GAS_FIRST_COLUMN + REAL_GAS_COLUMN_COUNT], \
+    "the real-gas columns are declared last, together"
 
 
 class KernelContext(NamedTuple):
@@ -67,13 +69,21 @@ def table_pressures(pose, memory, m, pressure_table):
 
 
 @kernel
-def chamber_inputs(pose, tip, sides, basis, memory, ctx):
+def chamber_inputs(pose, tip, geometry, memory):
     """What the chamber model needs of this pose: the geometry of docs/model.md §7.2, the lobe phase, the lift-off."""
-    m = ctx.machine[0]
-    geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
     return ChamberInputs(geometry.volume_leading, geometry.volume_trailing, geometry.rate_leading,
                          geometry.rate_trailing, pose.theta - memory[MEM_LOBE_START],
                          max(0.0, -tip.candidate.penetration))
+
+
+@kernel
+def chamber_powers(geometry, pressures):
+    """(indicated power, gap power) of docs/model.md §6.4 over the leading, trailing and back chambers:
+    P_ind = -sum_sigma p_sigma dV_sigma/dt,  P_gap = sum_sigma p_sigma gap_sigma;  P_out = -P_gas = P_ind + P_gap."""
+    indicated = -(pressures[0] * geometry.rate_leading + pressures[1] * geometry.rate_trailing
+                  + pressures[2] * geometry.rate_back)
+    gap = pressures[0] * geometry.gap_leading + pressures[1] * geometry.gap_trailing + pressures[2] * geometry.gap_back
+    return indicated, gap
 
 
 @kernel
@@ -99,7 +109,7 @@ def equations_of_motion(pose, contacts, gas, m, dydt):
 
 
 @kernel
-def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, memory, m, out):
+def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m, out):
     """Write the reported quantities of the output row (docs/model.md §3.4, §6.4); the per-region ones were written
     by contact_loads, the real-gas ones are written by the chamber step (NaN here)."""
     ax, ay, alpha, driving_torque = accelerations
@@ -130,6 +140,10 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
     out[O.output_power] = -gas.power
     out[O.friction_power] = contacts.friction_power
     out[O.damping_power] = contacts.damping_power
+    out[O.indicated_power], out[O.gap_power] = chamber_powers(geometry, pressures)
+    out[O.leading_volume] = geometry.volume_leading + m.dead_volume
+    out[O.trailing_volume] = geometry.volume_trailing + m.dead_volume
+    out[O.back_volume] = geometry.volume_back
     out[O.leading_pressure] = pressures[0]
     out[O.trailing_pressure] = pressures[1]
     out[O.kinetic_energy] = (0.5 * m.vane_mass * (pose.vx * pose.vx + pose.vy * pose.vy)
@@ -153,8 +167,6 @@ def report_chambers(out, y, inputs, flows, leading, trailing, c, table):
     """The real-gas columns of the output row, from the chamber state block of y at its geometry."""
     out[O.leading_temperature] = y[GAS_BLOCK + LEADING_TEMPERATURE]
     out[O.trailing_temperature] = y[GAS_BLOCK + TRAILING_TEMPERATURE]
-    out[O.leading_volume] = inputs.volume_leading + c.dead_volume
-    out[O.trailing_volume] = inputs.volume_trailing + c.dead_volume
     mass, energy = chamber_energy(y, GAS_BLOCK, inputs, c, table)
     out[O.chamber_mass] = mass
     out[O.chamber_internal_energy] = energy
@@ -192,7 +204,8 @@ def chamber_geometry_of(gx, gy, phi, vx, vy, phi_dot, theta, omega, lobe_start, 
 def chamber_inputs_at(t, y, ctx, memory):
     """The ChamberInputs of the state (t, y) (the valley switch compares them before and after)."""
     pose, slots, tip, sides, basis = pose_stages(t, y, ctx, memory)
-    return chamber_inputs(pose, tip, sides, basis, memory, ctx)
+    geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], ctx.machine[0], ctx.sectors)
+    return chamber_inputs(pose, tip, geometry, memory)
 
 
 @kernel
@@ -209,8 +222,10 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         status = VANE_BOTTOMED
     contacts = contact_loads(pose, slots, tip, memory, m, out)
     real_gas = m.pressure_model == REAL_GAS_MODEL
+    if real_gas or report:
+        geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
     if real_gas:
-        inputs = chamber_inputs(pose, tip, sides, basis, memory, ctx)
+        inputs = chamber_inputs(pose, tip, geometry, memory)
         c = ctx.chambers[0]
         flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, dydt)
         if leading.status != 0 or trailing.status != 0:
@@ -221,7 +236,8 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     gas = combine(basis, pressures[0], pressures[1], pressures[2], tip, pose.omega, m)
     accelerations = equations_of_motion(pose, contacts, gas, m, dydt)
     if report:
-        report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, memory, m, out)
+        report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m,
+                       out)
         if real_gas:
             report_chambers(out, y, inputs, flows, leading, trailing, c, ctx.properties)
     return status

@@ -1,4 +1,5 @@
-"""The exception raised when the time loop cannot go on (docs/model.md §8.2: step below h_min, non-finite state, ...)."""
+"""The exception raised when the time loop cannot go on (docs/model.md §8.2: step below h_min, non-finite state, ...),
+and the warning of a contact law used beyond its validity (docs/model.md §5.2)."""
 import numpy as np
 
 
@@ -15,3 +16,8 @@ class IntegrationError(RuntimeError):
     def __reduce__(self):
         """Rebuild from (reason, time, state), so the error crosses process pools (pickling)."""
         return type(self), (self.reason, self.time, self.state)
+
+
+class ContactLawWarning(UserWarning):
+    """A contact penetrated beyond its force law's validity limit; the law continued along its tangent
+    (docs/model.md §5.2). Issued once per run; `Simulation.contact_law_excess` holds the largest excess."""

@@ -59,20 +59,20 @@ class CompressorParameters:
     vane_length: float = _number(18.0e-3, "m", 2e-3, 0.2, "vane length l_v from bottom face to tip apex")
     axial_length: float = _number(55.0e-3, "m", 1e-3, 0.5, "axial length L of rotor, vane and stator")
     slot_bottom_radius: float = _number(9.5e-3, "m", 0.0, 0.2, "radius r_sb of the slot bottom")
-    edge_radius: float = _number(1.0e-3, "m", 1e-5, 10e-3, "effective radius r_e of slot edges and vane corners")
+    edge_radius: float = _number(1.0e-3, "m", 2e-4, 10e-3, "effective radius r_e of slot edges and vane corners")
     slot_clearance: float = _number(0.0, "m", 0.0, 1e-3, "total (diametral) vane-slot clearance c_R = w - t")
     stator_clearance: float = _number(0.0, "m", 0.0, 1e-3, "radial vane-stator clearance c_S (also the valley gap)")
     # materials and contact (docs/model.md §5)
     vane_density: float = _number(7850.0, "kg/m3", 100.0, 25000.0, "vane material density")
     rotor_inertia: float = _number(5.5e-4, "kg.m2", 0.0, 10.0, "rotor moment of inertia J2 about its axis")
-    youngs_modulus: float = _number(207e9, "Pa", 1e8, 1e12, "Young's modulus of all bodies")
+    youngs_modulus: float = _number(207e9, "Pa", 1e10, 1e12, "Young's modulus of all bodies")
     poisson_ratio: float = _number(0.30, "1", 0.0, 0.5, "Poisson's ratio of all bodies")
     restitution: float = _number(0.9, "1", 0.1, 1.0, "coefficient of restitution c_e of the Lankarani-Nikravesh law")
     onset_velocity_floor: float = _number(0.01, "m/s", 1e-6, 10.0, "floor v_floor on the stored impact velocity")
     stiffness_model: str = _choice("hertz_point", STIFFNESS_MODELS,
                                    "contact stiffness: Hertz point contact (option P) or Johnson line contact (L)")
     friction_model: str = _choice("threlfall", FRICTION_MODELS, "regularised Coulomb friction law of docs/model.md §5.3")
-    friction_coefficient: float = _number(0.085, "1", 0.0, 2.0, "Coulomb friction coefficient mu, all contacts")
+    friction_coefficient: float = _number(0.085, "1", 0.0, 0.5, "Coulomb friction coefficient mu, all contacts")
     friction_velocity: float = _number(1e-3, "m/s", 1e-7, 1.0, "regularisation velocity v_0 of the friction law")
     friction_velocity_full: float = _number(1e-3, "m/s", 1e-7, 1.0,
                                             "velocity v_1 of full sliding friction (ambrosio law only)")
@@ -99,14 +99,14 @@ class CompressorParameters:
     # numerics (docs/model.md §8)
     integrator: str = _choice("dopri5", INTEGRATORS,
                               "time integrator: adaptive Dormand-Prince 5(4) or the thesis's ABM4 PECE")
-    relative_tolerance: float = _number(3e-5, "1", 1e-12, 1e-2,
+    relative_tolerance: float = _number(3e-5, "1", 1e-12, 1e-3,
                                         "relative error tolerance rtol (docs/model.md §8.2: the default is the "
                                         "cheapest that keeps the per-revolution figures at their accuracy; the "
                                         "reference setting is 1e-6)")
     tolerance_scale: float = _number(1.0, "1", 1e-6, 1e3,
                                      "factor on all absolute tolerances of docs/model.md §8.2 (positions 1e-9 m, ...)")
     initial_step: float = _number(1e-6, "s", 1e-10, 1e-3, "first step size h_0")
-    min_step: float = _number(1e-9, "s", 1e-14, 1e-5, "smallest step h_min; below it the run stops with an error")
+    min_step: float = _number(1e-9, "s", 1e-14, 1e-6, "smallest step h_min; below it the run stops with an error")
     max_step: float = _number(2e-5, "s", 1e-8, 1e-2, "largest step h_max")
     max_onset_penetration: float = _number(1e-6, "m", 1e-9, 1e-4,
                                            "largest penetration allowed in the step where a contact opens")
@@ -208,6 +208,9 @@ def _validate_declared_ranges(params: CompressorParameters) -> None:
             _reject(name, value, allowed)
 
 
+OPERATING_POINT = ("suction_pressure", "suction_temperature", "discharge_pressure")
+
+
 def _validate_relations(params: CompressorParameters) -> None:
     """Conditions that involve several parameters (each message names the parameter to change)."""
     p = params
@@ -220,6 +223,14 @@ def _validate_relations(params: CompressorParameters) -> None:
         except UnknownFluidError as error:
             raise ValueError(f"parameter 'fluid' = {short_repr(p.fluid)} is not valid: "
                              f"{str(error).replace(repr(p.fluid), short_repr(p.fluid))}") from None
+        except ValueError as error:       # the operating point or the compression from it leaves the fluid's range
+            text = str(error)
+            name = next((n for n in OPERATING_POINT if text.startswith(n)), "discharge_pressure")
+            if text.startswith("temperature="):
+                text = "the table of the compression from suction to discharge pressure reaches " + text
+            raise ValueError(f"parameter '{name}' = {getattr(p, name):g} is out of range for {p.fluid} at "
+                             + ", ".join(f"{n} = {getattr(p, n):g}" for n in OPERATING_POINT if n != name)
+                             + f": {text}") from None
     if p.min_step >= p.max_step or p.initial_step > p.max_step:
         _reject("min_step", p.min_step, f"min_step < initial_step <= max_step = {p.max_step:g} s")
     if p.stroke >= p.base_radius:

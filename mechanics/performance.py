@@ -14,8 +14,9 @@ import numpy as np
 from .modes import MODE_COUNT, distinct_modes
 from .outputs import O, OUTPUT_SIZE
 from .regions import REGION_COUNT
-from .windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_LAW_EXCESS, ACC_MAX_FORCE, ACC_MAX_TILT, ACC_STATOR_MOMENT,
-                      MASKS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_END, RECORD_LOBE, RECORD_START)
+from .windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_GAP_WORK, ACC_INDICATED_WORK, ACC_LAW_EXCESS, ACC_MAX_FORCE,
+                      ACC_MAX_TILT, ACC_STATOR_MOMENT, MASKS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_END, RECORD_LOBE,
+                      RECORD_START)
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,10 @@ class WindowSummary:
     damping_power: float          # <P_damp> [W]
     mechanical_efficiency: float  # eta_m = <P_out>/<P_in>
     energy_residual: float        # (W_in - W_out - W_fric - W_damp - dKE - dPE - J2 int(omega theta_ddot)) / W_in
+    indicated_power: float        # <-sum_chambers p dV/dt>, leading, trailing and back chambers [W]
+    gap_power: float              # <sum_sigma p_sigma gap_sigma>, the open gaps' sweep [W]
+    storage_power: float          # (dKE + dPE + 1/2 J2 d(omega^2)) / duration [W]
+    ledger_residual: float        # (W_in - W_ind - W_gap - W_fric - W_damp - stored) / W_in
     driving_torque: float         # <T_d> = W_in / angle turned [N m]
     stator_torque: float          # <lambda3 + M_gas,stator> [N m]
     gap_torque: float             # <M_gap>, pressure moment on the gaps no body carries [N m]
@@ -44,7 +49,6 @@ class WindowSummary:
     suction_mass_flow: float = math.nan     # net mass from the suction side / duration [kg/s]
     discharge_mass_flow: float = math.nan   # mass through the discharge valve / duration [kg/s]
     discharge_enthalpy: float = math.nan    # mass-weighted enthalpy of the discharged gas [J/kg]
-    indicated_power: float = math.nan       # <-sum_chambers p dV/dt> [W]
     gas_mass_residual: float = math.nan     # (dm_chambers - m_suction + m_discharge) / m_discharge
     gas_energy_residual: float = math.nan   # (dU_chambers - E_suction + E_discharge - W_chambers) / W_chambers
     discharge_temperature: float = math.nan   # T(p_d, discharge_enthalpy) [K]
@@ -55,6 +59,26 @@ class WindowSummary:
     def max_contact_force(self) -> float:
         """Largest normal force of any region [N]."""
         return max(self.max_normal_force)
+
+    @property
+    def max_slot_force(self) -> float:
+        """Largest normal force of the slot regions c1-c4 [N]."""
+        return max(self.max_normal_force[:4])
+
+    @property
+    def max_tip_force(self) -> float:
+        """Largest normal force of the tip regions c5, c6 [N]."""
+        return max(self.max_normal_force[4:])
+
+    @property
+    def mode_count(self) -> int:
+        """Distinct contact modes, a mode being the set of touching regions (docs/model.md §4.6)."""
+        return len(self.distinct_modes)
+
+    @property
+    def mode_count_extended(self) -> int:
+        """Distinct contact modes, a mode being the set of touching regions and the c1/c2 candidate types."""
+        return len(self.distinct_modes_extended)
 
     @property
     def torque_balance_error(self) -> float:
@@ -83,8 +107,11 @@ def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: floa
     kinetic = end[O.kinetic_energy] - start[O.kinetic_energy]
     elastic = end[O.contact_energy] - start[O.contact_energy]
     rotor = 0.5 * rotor_inertia * (end[O.rotor_speed] ** 2 - start[O.rotor_speed] ** 2)
-    residual = (work["work_in"] - work["work_out"] - work["work_friction"] - work["work_damping"] - kinetic
-                - elastic - rotor)
+    stored = kinetic + elastic + rotor
+    residual = work["work_in"] - work["work_out"] - work["work_friction"] - work["work_damping"] - stored
+    indicated = accumulators[:, ACC_INDICATED_WORK].sum()
+    gap = accumulators[:, ACC_GAP_WORK].sum()
+    ledger = work["work_in"] - indicated - gap - work["work_friction"] - work["work_damping"] - stored
     angle_turned = end[O.rotor_angle] - start[O.rotor_angle]
     extended = accumulators[:, ACC_DWELL:ACC_DWELL + MODE_KEYS].sum(axis=0)
     by_mask = extended.reshape(-1, MASKS).sum(axis=0)
@@ -96,6 +123,8 @@ def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: floa
         input_power=work["work_in"] / duration, output_power=work["work_out"] / duration,
         friction_power=work["work_friction"] / duration, damping_power=work["work_damping"] / duration,
         mechanical_efficiency=work["work_out"] / work["work_in"], energy_residual=residual / work["work_in"],
+        indicated_power=float(indicated / duration), gap_power=float(gap / duration),
+        storage_power=float(stored / duration), ledger_residual=float(ledger / work["work_in"]),
         driving_torque=work["work_in"] / angle_turned,
         stator_torque=float(accumulators[:, ACC_STATOR_MOMENT].sum() / duration),
         gap_torque=float(accumulators[:, ACC_GAP_MOMENT].sum() / duration),
@@ -124,7 +153,6 @@ def _gas_figures(start: np.ndarray, end: np.ndarray, duration: float, input_powe
         **figures,
         suction_mass_flow=change["mass_suction"] / duration, discharge_mass_flow=delivered / duration,
         discharge_enthalpy=discharge_enthalpy,
-        indicated_power=change["work_chambers"] / duration,
         gas_mass_residual=(change["chamber_mass"] - change["mass_suction"] + delivered) / delivered
         if delivered > 0.0 else math.nan,
         gas_energy_residual=(change["chamber_internal_energy"] - change["energy_suction"]

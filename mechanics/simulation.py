@@ -8,6 +8,7 @@ saving and restoring a run is a copy, and an advance is one call of the compiled
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -18,7 +19,7 @@ from rotary_vane.thermo.property_table import describe_status, table_from_arrays
 
 from .chamber_geometry import sector_table
 from .displacement import displacement
-from .errors import IntegrationError
+from .errors import ContactLawWarning, IntegrationError
 from .gas_coupling import gas_coupling
 from .geometry import law_arguments
 from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, WORKSPACE_ROWS,
@@ -31,7 +32,8 @@ from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
 from .performance import WindowSummary, revolution_groups, summarise_records
 from .speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed, rotor_motion
-from .windows import MODE_KEYS, RECORD_SIZE, new_window
+from .windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZE, WINDOW_ACCUMULATORS,
+                      new_window)
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
@@ -80,7 +82,12 @@ class Simulation:
     keep_history: record every accepted step and every lobe record (for plots and studies); without it only the
         last output row and the lobe records of the last revolution are kept (what an FMU needs).
     table_speed_rpm: operating speed of the Level 0.5 pressure table (default: the speed law's target).
+
+    `contact_law_excess` is the largest penetration beyond a force law's validity limit so far [m]; the first time it
+    becomes positive a ContactLawWarning is issued (once per run; an FMU sets `warn_contact_law = False` and logs
+    it itself).
     """
+    warn_contact_law = True
 
     def __init__(self, params: CompressorParameters | None = None, speed: SpeedLaw | None = None,
                  initial_angle: float = 0.02, keep_history: bool = True, table_speed_rpm: float | None = None):
@@ -108,6 +115,8 @@ class Simulation:
         self.keep_history = keep_history
         self.time = 0.0
         self.speed_law = speed.segment(0.0, float(initial_angle))
+        if p.pressure_model == "real_gas":
+            self._check_valley_volumes()
         self.state = self._nominal_state(float(initial_angle), rotor_motion(0.0, self.speed_law)[1])
         self.memory = np.zeros(MEMORY_SIZE)
         lobe = 2.0 * math.pi / p.lobes
@@ -128,11 +137,12 @@ class Simulation:
         self.initial_output = np.empty(OUTPUT_SIZE)
         status = evaluate_state(self.time, self.state, self.memory, self.initial_output, np.empty(self.state.size),
                                 *self._kernel_context())
+        self.last_output = self.initial_output.copy()
         if status != 0:
             raise IntegrationError(self._failure_text(status), self.time, self.state)
-        self.last_output = self.initial_output.copy()
         at_valley = abs(initial_angle - self.memory[MEM_LOBE_START]) <= 1e-12 * max(1.0, abs(initial_angle))
         self.window = new_window(self.initial_output, at_valley)
+        self.contact_law_excess = 0.0
 
     def _nominal_state(self, angle: float, omega: float) -> np.ndarray:
         """Nominal pose and velocity (docs/model.md §3.3): untilted, centred, tip centre at R0 + s + c_S; under real
@@ -154,6 +164,37 @@ class Simulation:
             y[GAS_BLOCK + LEADING_MASS] = y[GAS_BLOCK + TRAILING_MASS] = math.nan     # set from the volumes below
             self._fill_chambers_with_suction_gas(y)
         return y
+
+    def _check_valley_volumes(self) -> None:
+        """Refuse, before any work, a real-gas machine whose chambers cannot hold gas at the valleys: with a wide
+        valley gap the vane straddling the valley line leaves the chamber beside it a negative geometric volume (the
+        pocket beside the vane counts on the other side of the line, docs/model.md §7.2). For the untilted vane at
+        the start and the end of a lobe, on its nominal radius or lifted by c_S, centred or against either slot wall,
+        at least a quarter of the dead volume must remain (a margin for tilt, measured in tests/test_real_gas.py)."""
+        p = self.params
+        lobe = 2.0 * math.pi / p.lobes
+        memory = np.zeros(MEMORY_SIZE)
+        machine, _, *rest = self._kernel_context()
+        smallest = math.inf
+        for angle, chamber in ((0.0, 1), (lobe * (1.0 - 1e-9), 0)):          # new trailing, old leading
+            law = constant_speed(0.0).segment(0.0, angle)                     # the rotor at `angle`
+            s, _, _, _ = displacement(angle, *law_arguments(p)[:5])
+            e_r = np.array([math.cos(angle), math.sin(angle)])
+            e_t = np.array([-e_r[1], e_r[0]])
+            for lift in (0.0, -p.stator_clearance):
+                for side in (-0.5, 0.0, 0.5):
+                    centre = ((p.base_radius + s + p.stator_clearance + lift - self.machine.tip_centre) * e_r
+                              + side * p.slot_clearance * e_t)
+                    y = np.zeros(REAL_GAS_STATE_SIZE)
+                    y[X], y[Y], y[ANGLE] = centre[0], centre[1], angle
+                    smallest = min(smallest, initial_chamber_inputs(0.0, y, memory, machine, law, *rest)[chamber])
+        if smallest + p.dead_volume < 0.25 * p.dead_volume:
+            raise ValueError(
+                f"parameter 'stator_clearance' = {p.stator_clearance:g} m is out of range for pressure_model "
+                f"'real_gas' with dead_volume = {p.dead_volume:g} m3: at the valley the chamber beside the vane can "
+                f"have a geometric volume of {smallest:.3g} m3 (the wide valley gap), leaving less than a quarter of "
+                f"the dead volume; allowed: a smaller stator_clearance, or dead_volume >= {-4.0 * smallest / 3.0:.3g} "
+                f"m3")
 
     def _fill_chambers_with_suction_gas(self, y: np.ndarray) -> None:
         """Chamber masses rho_s V of the nominal pose's volumes (with the dead volume)."""
@@ -215,6 +256,7 @@ class Simulation:
                     self._chunks.append(self._rows[:rows].copy())
             if records:
                 self._take_records(self._record_buffer[:records])
+            self._note_law_excess(records)
             if status == REACHED_END:
                 return
             if status != RECORD_FULL:
@@ -236,6 +278,21 @@ class Simulation:
 
     _last_revolution_lobe = -1.0
 
+    def _note_law_excess(self, records: int) -> None:
+        """Update contact_law_excess from the new lobe records and the open window; warn the first time."""
+        excess = self.window[WINDOW_ACCUMULATORS + ACC_LAW_EXCESS]
+        if records:
+            excess = max(excess, self._record_buffer[:records, RECORD_ACCUMULATORS + ACC_LAW_EXCESS].max())
+        if excess > self.contact_law_excess:
+            if self.contact_law_excess == 0.0 and self.warn_contact_law:
+                warnings.warn(self.law_excess_text(excess), ContactLawWarning, stacklevel=3)
+            self.contact_law_excess = float(excess)
+
+    def law_excess_text(self, excess: float) -> str:
+        return (f"a contact penetrated {excess:.3g} m beyond the validity limit of the '{self.params.stiffness_model}' "
+                f"force law by t = {self.time:.6g} s; the force continues along the law's tangent (docs/model.md "
+                f"§5.2). Contact forces beyond the limit are an extrapolation")
+
     def _failure_text(self, status: int) -> str:
         """Why the loop stopped; for a chamber state the table refused, which chamber, its state and why."""
         text = STATUS_TEXT[status]
@@ -253,6 +310,27 @@ class Simulation:
                     text += "; " + describe_status(code, temperature_value, density, table,
                                                    fluid=fluid,
                                                    state=f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})")
+            text += self._port_hint()
+        return text
+
+    def _port_hint(self) -> str:
+        """What the chamber pressures of the last accepted step say about a state that left the table: a leading
+        chamber far above discharge pressure behind a port that cannot pass the displaced gas at this speed, or a
+        trailing chamber starved by the suction port."""
+        p = self.params
+        leading = self.last_output[OUTPUT_INDEX["leading_pressure"]]
+        trailing = self.last_output[OUTPUT_INDEX["trailing_pressure"]]
+        rpm = self.rotor_speed * 30.0 / math.pi
+        text = (f"; at the last accepted step (t = {self.time:.6g} s, {rpm:.6g} rpm) p_L = {leading:.4g} Pa "
+                f"({leading / p.discharge_pressure:.3g} x discharge_pressure) and p_T = {trailing:.4g} Pa "
+                f"({trailing / p.suction_pressure:.3g} x suction_pressure)")
+        if leading > 1.5 * p.discharge_pressure:
+            text += (f": the discharge port (discharge_port_area = {p.discharge_port_area:g} m2, "
+                     f"discharge_port_coefficient = {p.discharge_port_coefficient:g}) cannot pass the displaced gas "
+                     f"at this speed; lower the speed or enlarge the port (docs/model.md §7.4)")
+        elif trailing < 0.5 * p.suction_pressure:
+            text += (f": the suction port (suction_port_area = {p.suction_port_area:g} m2) starves the chamber at "
+                     f"this speed; lower the speed or enlarge the port (docs/model.md §7.4)")
         return text
 
     def evaluate(self, t: float, state: np.ndarray, memory: np.ndarray | None = None):

@@ -3,8 +3,9 @@
 
 The loop lands on every valley (every 2 pi / z of rotor angle), so lobes are exact windows and a revolution is z
 consecutive lobes. The `window` array holds the output row at the start of the current lobe and what accumulates
-over it at each accepted step: time integrals of the stator and gap moments (trapezoidal), the largest normal force
-per region and the largest |tilt|, and the dwell of every extended contact mode. At each valley the loop writes
+over it at each accepted step: trapezoidal time integrals of the `INTEGRATED_COLUMNS` (stator and gap moments,
+indicated and gap powers), the largest normal force per region and the largest |tilt|, and the dwell of every
+extended contact mode. At each valley the loop writes
 one lobe record (`RECORD_*` layout: the start row, the end row, the accumulators) and starts the next window;
 mechanics.performance turns records into figures. Nothing of this runs in Python per accepted step.
 
@@ -24,16 +25,21 @@ from .regions import REGION_COUNT
 
 MASKS = 1 << REGION_COUNT
 MODE_KEYS = MASKS * CANDIDATE_TYPES * CANDIDATE_TYPES
+# columns integrated over time (trapezoidal over the accepted steps); their integrals come first in the accumulators
+INTEGRATED_COLUMNS = (O.stator_reaction_moment, O.gap_moment, O.indicated_power, O.gap_power)
+INTEGRALS = len(INTEGRATED_COLUMNS)
 # accumulators (offsets into the accumulator part of a window or record)
-(ACC_STATOR_MOMENT, ACC_GAP_MOMENT, ACC_MAX_TILT, ACC_LAW_EXCESS) = range(4)
-ACC_MAX_FORCE = 4                                  # one per region
+ACC_STATOR_MOMENT, ACC_GAP_MOMENT, ACC_INDICATED_WORK, ACC_GAP_WORK = range(INTEGRALS)
+ACC_MAX_TILT = INTEGRALS
+ACC_LAW_EXCESS = ACC_MAX_TILT + 1
+ACC_MAX_FORCE = ACC_LAW_EXCESS + 1                 # one per region
 ACC_DWELL = ACC_MAX_FORCE + REGION_COUNT           # one per extended mode key
 ACCUMULATOR_SIZE = ACC_DWELL + MODE_KEYS
-# window = [start row | accumulators | previous accepted row's time, stator moment, gap moment]
+# window = [start row | accumulators | previous accepted row's time and integrated columns]
 WINDOW_START = 0
 WINDOW_ACCUMULATORS = OUTPUT_SIZE
 WINDOW_PREVIOUS = WINDOW_ACCUMULATORS + ACCUMULATOR_SIZE
-WINDOW_SIZE = WINDOW_PREVIOUS + 3
+WINDOW_SIZE = WINDOW_PREVIOUS + 1 + INTEGRALS
 # lobe record = [lobe index | start row | end row | accumulators]
 RECORD_LOBE = 0
 RECORD_START = 1
@@ -57,7 +63,8 @@ def new_window(initial_row: np.ndarray, at_valley: bool) -> np.ndarray:
     dwell)."""
     window = np.zeros(WINDOW_SIZE)
     window[WINDOW_START:WINDOW_START + OUTPUT_SIZE] = initial_row if at_valley else np.nan
-    window[WINDOW_PREVIOUS:] = (initial_row[O.time], initial_row[O.stator_reaction_moment], initial_row[O.gap_moment])
+    window[WINDOW_PREVIOUS] = initial_row[O.time]
+    window[WINDOW_PREVIOUS + 1:] = initial_row[list(INTEGRATED_COLUMNS)]
     _start_maxima(window, initial_row)
     return window
 
@@ -72,21 +79,21 @@ def _start_maxima(window, row):
 
 @kernel
 def accumulate(window, run_dwell, out):
-    """Add the accepted step ending at row `out` to the window: trapezoidal moment integrals, maxima, and its
-    length to the dwell of the mode at its end (the same rule for the run-long dwell)."""
+    """Add the accepted step ending at row `out` to the window: trapezoidal integrals of the INTEGRATED_COLUMNS,
+    maxima, and its length to the dwell of the mode at its end (the same rule for the run-long dwell)."""
     acc = WINDOW_ACCUMULATORS
     previous_time = window[WINDOW_PREVIOUS]
     time = out[O.time]
     if math.isfinite(previous_time):
         step = time - previous_time
-        window[acc + ACC_STATOR_MOMENT] += 0.5 * step * (window[WINDOW_PREVIOUS + 1] + out[O.stator_reaction_moment])
-        window[acc + ACC_GAP_MOMENT] += 0.5 * step * (window[WINDOW_PREVIOUS + 2] + out[O.gap_moment])
+        for k in range(INTEGRALS):
+            window[acc + k] += 0.5 * step * (window[WINDOW_PREVIOUS + 1 + k] + out[INTEGRATED_COLUMNS[k]])
         key = mode_key(out)
         window[acc + ACC_DWELL + key] += step
         run_dwell[key] += step
     window[WINDOW_PREVIOUS] = time
-    window[WINDOW_PREVIOUS + 1] = out[O.stator_reaction_moment]
-    window[WINDOW_PREVIOUS + 2] = out[O.gap_moment]
+    for k in range(INTEGRALS):
+        window[WINDOW_PREVIOUS + 1 + k] = out[INTEGRATED_COLUMNS[k]]
     window[acc + ACC_MAX_TILT] = max(window[acc + ACC_MAX_TILT], abs(out[O.vane_tilt]))
     window[acc + ACC_LAW_EXCESS] = max(window[acc + ACC_LAW_EXCESS], out[O.contact_law_excess])
     for region in range(REGION_COUNT):

@@ -169,6 +169,43 @@ def test_rates_match_finite_differences_for_other_laws(law, check):
               np.max(np.abs(fd - exact[:2]) / np.maximum(np.abs(exact[:2]), 0.01 * scale)), 1e-6)
 
 
+def back_volume(state, m):
+    return geometry(state, m).volume_back
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.05e-3, 0.2e-3])
+def test_back_chamber_volume_and_rate(clearance, check):
+    """The back chamber (the slot below the vane, docs/model.md §7.2): for an untilted vane centred in the slot its
+    volume is the rectangle L w (r_B - r_sb), r_B = R0 + s + xi_B - xi_T the bottom-face radius; along tilted,
+    leaning and lifted paths the rate equals a fourth-order finite difference of the volume to 1e-6; its gap part
+    (the two corner-to-wall segments) vanishes for an untilted vane in a slot without clearance and not otherwise."""
+    params, m = setup(3, clearance=clearance)
+    for theta0 in (0.05, 0.9, 2.05):
+        s_value = displacement(theta0, m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell)[0]
+        bottom = m.base_radius + s_value + m.stator_clearance + m.bottom_face - m.tip_centre
+        state = vane_path(m, theta0, OMEGA, lift=m.stator_clearance)(0.0)
+        expected = params.axial_length * params.slot_width * (bottom - params.slot_bottom_radius)
+        check("chambers: centred back volume vs L w (r_B - r_sb), rel.", abs(back_volume(state, m) / expected - 1),
+              1e-12)
+    scale = OMEGA * params.axial_length * params.vane_thickness * params.stroke
+    largest_gap = 0.0
+    for lift, lift_rate, offset, offset_rate, tilt, tilt_rate in MOTIONS:
+        lift, offset, tilt, tilt_rate = (lift * clearance, offset * clearance, tilt * clearance / 1e-4,
+                                         tilt_rate * clearance / 1e-4)
+        for theta0 in (0.05, 0.9, 1.6):
+            path = vane_path(m, theta0, OMEGA, lift, lift_rate, offset, offset_rate, tilt, tilt_rate)
+            step = 2e-4 / OMEGA
+            v = [back_volume(path(k * step), m) for k in (-2, -1, 1, 2)]
+            fd = (v[0] - 8.0 * v[1] + 8.0 * v[2] - v[3]) / (12.0 * step)
+            result = geometry(path(0.0), m)
+            check("chambers: back chamber FD vs dV_b/dt", abs(fd - result.rate_back) / scale, 1e-6)
+            largest_gap = max(largest_gap, abs(result.gap_back) / scale)
+    if clearance == 0.0:
+        check("chambers: back-chamber gap part without clearance or tilt", largest_gap, 1e-12)
+    else:
+        assert largest_gap > 1e-4
+
+
 @pytest.mark.parametrize("clearance", [0.0, 0.1e-3])
 def test_wall_part_is_the_unit_pressure_gas_power(clearance, contact_reference, check):
     """dV_sigma/dt - gap_sigma equals the gas power of docs/model.md §6.2/§6.4 at p_sigma = 1, other pressures 0, from the

@@ -191,6 +191,44 @@ def test_line_contact_energy_is_integral_of_force(check, vane, other):
         check("T5 option L energy vs quad of F, rel.", abs(energy / work - 1), 1e-6)
 
 
+# Curvature pairs of both signs of the other body: convex (> 0), flat (0), concave (< 0), and a nearly conformal
+# concave pair whose curvature sum (1e-6 1/m) is far below any of the machine's
+SIGNED_CURVATURES = CURVATURE_CASES + [(0.0, -40.0), (1 / RHO, -1 / RHO + 1e-6), (1 / R_E, -1 / RHO)]
+
+
+@pytest.mark.parametrize("stiffness_model", ["hertz_point", "johnson_line"])
+@pytest.mark.parametrize("vane,other", SIGNED_CURVATURES)
+def test_every_force_law_is_defined_over_the_whole_penetration_range(check, stiffness_model, vane, other):
+    """docs/model.md §5.2: for penetrations 1e-12 .. 1e-3 m and both curvature signs each elastic law gives a finite,
+    strictly increasing force, a stored energy equal to int_0^delta F d delta (adaptive quadrature, split at the
+    line law's validity limit) to 1e-9, and an excess that is 0 inside the law's range and delta - delta_s beyond."""
+    from rotary_vane.mechanics.contact_laws import line_contact_constants, line_contact_limit
+    m = machine_from_parameters(CompressorParameters(stiffness_model=stiffness_model))
+    deltas = np.logspace(-12, -3, 400)
+    values = np.array([elastic_force(d, vane, other, m) for d in deltas])
+    forces, energies, excess = values.T
+    assert np.all(np.isfinite(values))
+    assert np.all(np.diff(forces) > 0) and np.all(forces > 0)
+    limit = math.inf
+    if stiffness_model == "johnson_line":
+        a, b = line_contact_constants(vane, other, m)
+        limit = line_contact_limit(a, b)[1]
+    expected_excess = np.maximum(deltas - limit, 0.0)
+    check("T5 law excess vs max(delta - delta_s, 0) [m]", float(np.max(np.abs(excess - expected_excess))), 1e-18)
+    # continuity at the validity limit: the tangent continues the law
+    if math.isfinite(limit) and 1e-12 < limit < 1e-3:
+        below, above = (elastic_force(limit * (1 + s), vane, other, m) for s in (-1e-12, 1e-12))
+        check("T5 option L force jump at delta_s, rel.", abs(above[0] / below[0] - 1), 1e-9)
+        check("T5 option L energy jump at delta_s, rel.", abs(above[1] / below[1] - 1), 1e-9)
+    worst = 0.0
+    for delta, energy in zip(deltas[::20], energies[::20]):
+        points = [0.0] + ([limit] if limit < delta else []) + [delta]
+        work = sum(integrate.quad(lambda x: elastic_force(x, vane, other, m)[0], lo, hi, epsabs=0, epsrel=1e-13,
+                                  limit=400)[0] for lo, hi in zip(points[:-1], points[1:]))
+        worst = max(worst, abs(energy / work - 1))
+    check(f"T5 {stiffness_model} stored energy vs quad of F, rel.", worst, 1e-9)
+
+
 # ----------------------------------------------------------------------------------------------------------
 # T6: friction
 

@@ -213,3 +213,30 @@ def test_bad_gas_input_is_refused_before_any_work(changes, named):
 def test_unknown_fluid_message_says_how_to_list_names():
     with pytest.raises(ValueError, match="FluidsList"):
         CompressorParameters(**{**OPERATING, "fluid": "NoSuchFluid"})
+
+
+@pytest.mark.parametrize("clearance", [0.5e-3, 0.6e-3])
+def test_wide_clearances_run_with_the_valley_switch_conserving_mass_and_energy(clearance):
+    """At c = 0.5-0.6 mm the chamber beside the vane at the valley is smaller than the old leading chamber (the
+    wide valley gap, docs/model.md §7.2): the switch keeps the gas at its density and passes the surplus to the new
+    leading chamber, so the run goes on and each revolution still balances mass (1e-9 kg of about 1e-4 kg in the
+    chambers) and energy (1e-4)."""
+    simulation = run(revs=3, slot_clearance=clearance, stator_clearance=clearance)
+    history = simulation.history
+    for rev in revolutions(simulation):
+        # these leaks keep the chambers below discharge pressure: nothing is delivered, so the balance is absolute
+        rows = np.searchsorted(history["time"], [rev.start_time, rev.end_time])
+        change = {name: np.diff(history[name][rows])[0] for name in ("chamber_mass", "mass_suction", "mass_discharge")}
+        assert abs(change["chamber_mass"] - change["mass_suction"] + change["mass_discharge"]) < 1e-9
+        assert abs(rev.gas_energy_residual) < 1e-4
+        assert abs(rev.ledger_residual) < 1e-3
+
+
+def test_a_valley_gap_too_wide_for_the_dead_volume_is_refused_before_any_work():
+    """c = 1 mm with the default dead volume: refused at construction, naming stator_clearance and the dead volume
+    that would do; with that dead volume the same machine runs."""
+    with pytest.raises(ValueError, match=r"'stator_clearance' = 0.001 m .* dead_volume >= ([0-9.e-]+) m3") as error:
+        Simulation(CompressorParameters(**{**OPERATING, "slot_clearance": 1e-3, "stator_clearance": 1e-3}))
+    needed = float(error.value.args[0].rsplit(">= ", 1)[1].split(" ")[0])
+    simulation = run(revs=1.05, slot_clearance=1e-3, stator_clearance=1e-3, dead_volume=needed * 1.01)
+    assert math.isfinite(simulation.last_output[OUTPUT_INDEX["leading_pressure"]])

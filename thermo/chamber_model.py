@@ -173,31 +173,48 @@ def chamber_energy(y, block, inputs, c, table):
 def switch_chambers(y, block, old_inputs, new_inputs, c, table):
     """Chamber bookkeeping when the vane crosses a valley (docs/model.md §7.2):
 
-    the leading chamber (now the dead volume at the valley) becomes the new trailing chamber: its mass and internal
-    energy fill the new trailing volume (adiabatic, T from u at the new density); the trailing chamber becomes an
-    idle lobe (vented to the suction plenum); the next idle lobe becomes the new leading chamber at the suction
-    state. The cumulative suction-side mass and energy record what was vented and filled. Returns False if a state
-    left the property table.
+    the leading chamber (now the dead volume at the valley) becomes the new trailing chamber: its gas fills the new
+    trailing volume, expanding adiabatically (T from u at the new density) if that volume is larger; if it is smaller
+    (a wide valley gap: the pocket beside the vane is counted on the other side of the valley line), the trailing
+    chamber keeps the gas at its density and the surplus passes through the valley gap into the new leading chamber
+    (mixed at constant total internal energy). The trailing chamber becomes an idle lobe (vented to the suction
+    plenum); the next idle lobe becomes the new leading chamber at the suction state. The cumulative suction-side
+    mass and energy record what was vented and filled. Returns False if a state left the property table or the new
+    trailing chamber has no volume.
     """
     leading, trailing = chamber_fluid_states(y, block, old_inputs, c, table)
     old_leading, old_trailing = volumes_with_dead_volume(old_inputs, c)
     new_leading, new_trailing = volumes_with_dead_volume(new_inputs, c)
+    if new_trailing <= 0.0 or new_leading <= 0.0:
+        return False
     leading_mass = y[block + LEADING_MASS]
     trailing_mass = y[block + TRAILING_MASS]
     leading_energy = leading.enthalpy - leading.pressure * old_leading / leading_mass
     trailing_energy = trailing.enthalpy - trailing.pressure * old_trailing / trailing_mass
     suction = table_properties(c.suction_temperature, c.suction_density, table)
     suction_energy = suction[1] - suction[0] / c.suction_density
-    merged_temperature = internal_energy_temperature(leading_energy, leading_mass / new_trailing,
-                                                     y[block + LEADING_TEMPERATURE], table)
     filled_mass = c.suction_density * new_leading
-    y[block + TRAILING_TEMPERATURE] = merged_temperature
-    y[block + TRAILING_MASS] = leading_mass
-    y[block + LEADING_TEMPERATURE] = c.suction_temperature
-    y[block + LEADING_MASS] = filled_mass
+    if new_trailing >= old_leading:
+        kept_mass = leading_mass
+        kept_temperature = internal_energy_temperature(leading_energy, leading_mass / new_trailing,
+                                                       y[block + LEADING_TEMPERATURE], table)
+    else:
+        kept_mass = leading_mass * new_trailing / old_leading
+        kept_temperature = y[block + LEADING_TEMPERATURE]
+    surplus = leading_mass - kept_mass
+    new_leading_mass = filled_mass + surplus
+    new_leading_temperature = c.suction_temperature
+    if surplus > 0.0:
+        mixed_energy = (filled_mass * suction_energy + surplus * leading_energy) / new_leading_mass
+        new_leading_temperature = internal_energy_temperature(mixed_energy, new_leading_mass / new_leading,
+                                                              c.suction_temperature, table)
+    y[block + TRAILING_TEMPERATURE] = kept_temperature
+    y[block + TRAILING_MASS] = kept_mass
+    y[block + LEADING_TEMPERATURE] = new_leading_temperature
+    y[block + LEADING_MASS] = new_leading_mass
     y[block + MASS_SUCTION] += filled_mass - trailing_mass
     y[block + ENERGY_SUCTION] += filled_mass * suction_energy - trailing_mass * trailing_energy
-    return math.isfinite(merged_temperature)
+    return math.isfinite(kept_temperature) and math.isfinite(new_leading_temperature)
 
 
 @kernel

@@ -279,7 +279,8 @@ def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, d
                           superheat_margin=SUPERHEAT_MARGIN):
     """Validate a compressor operating point (docs/model.md §7.1) before any work starts; ValueError otherwise.
 
-    Requires p_s > 0, T_s > 0, p_d > p_s, states inside the equation of state's range, and a suction gas at least
+    Requires p_s > 0, T_s > 0, p_d > p_s, p_s at least the triple-point pressure, states inside the equation of
+    state's range, and a suction gas at least
     `superheat_margin` outside the two-phase dome: T_s >= T_dew(p_s) + margin for p_s < p_crit, and
     T_s >= T_crit + margin for p_s >= p_crit (a supercritical gas; colder is a compressed liquid).
     Returns the suction superheat [K] in that sense.
@@ -289,6 +290,11 @@ def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, d
     if not discharge_pressure <= fluid.maximum_pressure:
         _fail("discharge_pressure", discharge_pressure,
               f"<= {fluid.maximum_pressure!r} Pa (validity range of the {fluid.name} equation of state)")
+    triple_pressure = fluid.dew_pressure(fluid.triple_temperature)
+    if not suction_pressure >= triple_pressure:
+        _fail("suction_pressure", suction_pressure,
+              f">= {triple_pressure!r} Pa, the triple-point pressure of {fluid.name} (the chamber model's "
+              f"property table follows the liquid-vapour dome, which ends there)")
     if not fluid.minimum_temperature <= suction_temperature <= fluid.maximum_temperature:
         _fail("suction_temperature", suction_temperature,
               f"[{fluid.minimum_temperature!r}, {fluid.maximum_temperature!r}] K "

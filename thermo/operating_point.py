@@ -49,7 +49,7 @@ from .fluid import (SUPERHEAT_MARGIN, UNIVERSAL_GAS_CONSTANT, Fluid, check_opera
 from .property_table import (ENVELOPE_COLD_MARGIN, ENVELOPE_HIGH_PRESSURE_FACTOR, ENVELOPE_HOT_MARGIN,
                              ENVELOPE_LOW_PRESSURE_FACTOR, Envelope, envelope_for)
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2                           # 2: points below the triple-point pressure are refused
 DISCHARGE_INITIAL_NODES = 17                 # uniform in T before refinement
 DISCHARGE_TEMPERATURE_TOLERANCE = 1e-8       # K, interpolant against the exact T at every interval's T-midpoint
 

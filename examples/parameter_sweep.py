@@ -1,0 +1,194 @@
+"""The declared parameter space, swept: every point either runs one revolution with finite outputs and the energy
+ledger closed, or is refused before any work starts with an error naming the parameter (docs/model.md §9, §6.4).
+
+Points (all from the declarations in mechanics.parameters, so a new parameter is swept without editing this file):
+* the defaults;
+* one at a time: every numeric parameter at its declared minimum and maximum, every choice at each of its values,
+  a few fluids, and the shaft speed at its ends, the others at their defaults;
+* `--random N` points with every parameter drawn at once (fixed seed): numbers uniform over their range, or
+  log-uniform where the range spans more than two decades and starts above 0; choices uniform; speed log-uniform.
+
+Each point builds `CompressorParameters` (a ValueError there is a *refusal*: its message must name a parameter),
+starts on a valley and runs one revolution at constant speed (at 0 rpm: 10 ms at standstill), then checks every
+output column is finite where the model defines it and the revolution's ledger residual is within 0.1 %. A point
+that stops at run time (IntegrationError, any other exception, non-finite outputs, an open ledger) is a *failure*;
+one that takes longer than `--budget` seconds of wall time is reported as *slow* with how far it got. Points fan
+out over processes with dask. Prints the tally and every failure; `--csv` writes one row per point.
+
+    python examples/parameter_sweep.py                      # one-at-a-time points and 200 random ones
+    python examples/parameter_sweep.py --random 1000 --workers 4 --csv out/sweep.csv
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
+from rotary_vane.mechanics.outputs import OUTPUT_NAMES, REAL_GAS_COLUMNS
+from rotary_vane.mechanics.parameters import is_numeric
+from rotary_vane.mechanics.performance import revolutions
+
+MAX_SPEED_RPM = 30000.0              # the FMU's declared shaft_speed maximum (fmu_src.compressor.MAX_SHAFT_SPEED)
+SPEEDS_RPM = (0.0, 10.0, 1500.0, MAX_SPEED_RPM)
+FLUIDS = ("R134a", "R410A", "R744", "Propane", "Air")
+LEDGER_BOUND = 1e-3
+STANDSTILL_TIME = 0.01               # s simulated at 0 rpm
+SEED = 20261125
+# columns that may be NaN by definition: a region without a candidate point; the chamber states under the tables
+MAYBE_NAN = tuple(name for name in OUTPUT_NAMES if name.startswith("penetration_"))
+OUTCOMES = ("completed", "refused", "failed", "slow")
+
+
+def one_at_a_time() -> list[dict]:
+    """Defaults; each parameter at its ends or each of its values; each fluid (real gas); each speed."""
+    points = [dict(rpm=1500.0)]
+    for name, default, meta in declarations():
+        if meta.get("fluid"):
+            points += [dict(rpm=1500.0, fluid=fluid) for fluid in FLUIDS if fluid != default]
+        elif "choices" in meta:
+            points += [dict(rpm=1500.0, **{name: value}) for value in meta["choices"] if value != default]
+        else:
+            points += [dict(rpm=1500.0, **{name: meta[bound]}) for bound in ("min", "max") if meta[bound] != default]
+    points += [dict(rpm=rpm) for rpm in SPEEDS_RPM if rpm != 1500.0]
+    return points
+
+
+def random_points(count: int, seed: int = SEED) -> list[dict]:
+    """`count` points with every parameter drawn at once (module docstring)."""
+    rng = np.random.default_rng(seed)
+    points = []
+    for _ in range(count):
+        point = dict(rpm=float(math.exp(rng.uniform(math.log(10.0), math.log(MAX_SPEED_RPM)))))
+        for name, _, meta in declarations():
+            if meta.get("fluid"):
+                point[name] = str(rng.choice(FLUIDS))
+            elif "choices" in meta:
+                point[name] = str(rng.choice(meta["choices"]))
+            elif meta["integer"]:
+                point[name] = int(rng.integers(meta["min"], meta["max"] + 1))
+            elif meta["min"] > 0.0 and meta["max"] / meta["min"] > 100.0:
+                point[name] = float(math.exp(rng.uniform(math.log(meta["min"]), math.log(meta["max"]))))
+            else:
+                point[name] = float(rng.uniform(meta["min"], meta["max"]))
+        points.append(point)
+    return points
+
+
+def run_point(point: dict, budget: float = 120.0) -> dict:
+    """Run one point (module docstring); returns {outcome, detail, ledger_residual, steps, wall, progress}."""
+    values = {k: v for k, v in point.items() if k != "rpm"}
+    rpm = point["rpm"]
+    result = dict(outcome="completed", detail="", ledger_residual=math.nan, steps=0, wall=0.0, progress=0.0)
+    try:
+        params = CompressorParameters(**values)
+    except ValueError as error:
+        named = any(f"'{name}'" in str(error) for name, _, _ in declarations())
+        return dict(result, outcome="refused" if named else "failed",
+                    detail=str(error) if named else f"refused without naming a parameter: {error}")
+    try:
+        simulation = Simulation(params, constant_speed(rpm), initial_angle=0.0, keep_history=False)
+    except ValueError as error:                     # refused at construction: before any work
+        named = any(f"'{name}'" in str(error) for name, _, _ in declarations())
+        return dict(result, outcome="refused" if named else "failed",
+                    detail=str(error) if named else f"refused without naming a parameter: {error}")
+    except Exception as error:                      # noqa: BLE001 - a crash is what the sweep looks for
+        return dict(result, outcome="failed", detail=f"at construction, {type(error).__name__}: {error}")
+    start = time.perf_counter()
+    try:
+        end = STANDSTILL_TIME if rpm == 0.0 else 60.0 / rpm * 1.0001     # just past the valley at 2 pi
+        slices = 50
+        for k in range(1, slices + 1):
+            simulation.advance(end * k / slices)
+            result["progress"] = k / slices
+            if time.perf_counter() - start > budget and k < slices:
+                return dict(result, outcome="slow", wall=time.perf_counter() - start,
+                            steps=int(simulation.counters[0]),
+                            detail=f"{k}/{slices} of the run in {budget:g} s")
+    except IntegrationError as error:
+        return dict(result, outcome="failed", wall=time.perf_counter() - start,
+                    detail=f"IntegrationError at t = {error.time:.6g} s: {error.reason}")
+    except Exception as error:                      # noqa: BLE001 - a crash is what the sweep looks for
+        return dict(result, outcome="failed", wall=time.perf_counter() - start,
+                    detail=f"{type(error).__name__}: {error}")
+    result.update(wall=time.perf_counter() - start, steps=int(simulation.counters[0]))
+    allowed_nan = set(MAYBE_NAN) | (set(REAL_GAS_COLUMNS) if params.pressure_model != "real_gas" else set())
+    bad = [name for name, value in zip(OUTPUT_NAMES, simulation.last_output)
+           if not math.isfinite(value) and name not in allowed_nan]
+    if bad:
+        return dict(result, outcome="failed", detail=f"non-finite outputs: {', '.join(bad)}")
+    if rpm == 0.0:
+        return result
+    summaries = revolutions(simulation)
+    if not summaries:
+        return dict(result, outcome="failed", detail="no complete revolution")
+    residual = summaries[-1].ledger_residual
+    result["ledger_residual"] = residual
+    if not abs(residual) <= LEDGER_BOUND:
+        return dict(result, outcome="failed", detail=f"ledger residual {residual:.3g} beyond {LEDGER_BOUND:g}")
+    return result
+
+
+def sweep(points: list[dict], workers: int, budget: float) -> list[dict]:
+    """run_point over all points on `workers` processes (dask), in point order."""
+    import dask
+    from dask import delayed
+    jobs = [delayed(run_point)(point, budget) for point in points]
+    if workers == 1:
+        return list(dask.compute(*jobs, scheduler="synchronous"))
+    return list(dask.compute(*jobs, scheduler="processes", num_workers=workers))
+
+
+def describe(point: dict) -> str:
+    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in point.items())
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--random", type=int, default=200, help="number of random points")
+    parser.add_argument("--seed", type=int, default=SEED)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--budget", type=float, default=120.0, help="wall-time budget per point [s]")
+    parser.add_argument("--csv", type=Path, help="write one row per point")
+    args = parser.parse_args(argv)
+    Simulation(CompressorParameters(pressure_model="ideal_gas_table")).advance(1e-5)     # compile once
+    points = one_at_a_time() + random_points(args.random, args.seed)
+    started = time.perf_counter()
+    results = sweep(points, args.workers, args.budget)
+    tally = {outcome: sum(r["outcome"] == outcome for r in results) for outcome in OUTCOMES}
+    print(f"{len(points)} points in {time.perf_counter() - started:.0f} s on {args.workers} worker(s): "
+          + ", ".join(f"{n} {k}" for k, n in tally.items()))
+    residuals = [abs(r["ledger_residual"]) for r in results if r["outcome"] == "completed"
+                 and math.isfinite(r["ledger_residual"])]
+    if residuals:
+        print(f"ledger residual over the completed revolutions: median {np.median(residuals):.2e}, "
+              f"largest {max(residuals):.2e}")
+    refusals = {}
+    for r in results:
+        if r["outcome"] == "refused":
+            name = r["detail"].split("'")[1]
+            refusals[name] = refusals.get(name, 0) + 1
+    if refusals:
+        print("refused, by the parameter named: " + ", ".join(f"{k} {v}" for k, v in sorted(
+            refusals.items(), key=lambda item: -item[1])))
+    for point, r in zip(points, results):
+        if r["outcome"] in ("failed", "slow"):
+            print(f"{r['outcome'].upper()}: {describe(point)}\n    {r['detail']}")
+    if args.csv:
+        args.csv.parent.mkdir(parents=True, exist_ok=True)
+        with args.csv.open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["point", "outcome", "detail", "ledger_residual", "steps", "wall", "progress"])
+            for point, r in zip(points, results):
+                writer.writerow([describe(point), r["outcome"], r["detail"], r["ledger_residual"], r["steps"],
+                                 f"{r['wall']:.3f}", r["progress"]])
+    return 1 if tally["failed"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

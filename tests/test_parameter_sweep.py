@@ -1,0 +1,33 @@
+"""The declared parameter space (issue 14 item 6; examples/parameter_sweep.py): every point runs one revolution with
+finite outputs and the energy ledger closed to 0.1 %, or is refused before any work with an error naming a
+parameter. The fast subset takes every choice at each of its values, the lobe counts and clearances at their
+declared ends, and a slow speed; the full one-at-a-time sweep is slow."""
+import pytest
+
+from rotary_vane.examples.parameter_sweep import one_at_a_time, run_point
+
+FAST = {"lobes", "displacement_law", "stiffness_model", "friction_model", "pressure_model", "integrator",
+        "slot_clearance", "stator_clearance", "relative_tolerance", "friction_coefficient", "youngs_modulus",
+        "edge_radius"}
+
+
+def changed(point):
+    return next((name for name in point if name != "rpm"), "rpm")
+
+
+def fast_points():
+    return [p for p in one_at_a_time() if changed(p) in FAST or p == dict(rpm=10.0)]
+
+
+@pytest.mark.parametrize("point", fast_points(), ids=lambda p: "-".join(f"{k}={v}" for k, v in p.items()))
+def test_point_runs_or_is_refused_by_name(point):
+    result = run_point(point, budget=600.0)
+    assert result["outcome"] in ("completed", "refused"), result["detail"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("point", [p for p in one_at_a_time() if p not in fast_points()],
+                         ids=lambda p: "-".join(f"{k}={v}" for k, v in p.items()))
+def test_every_declared_end_runs_or_is_refused_by_name(point):
+    result = run_point(point, budget=600.0)
+    assert result["outcome"] in ("completed", "refused"), result["detail"]
