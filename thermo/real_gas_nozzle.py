@@ -167,7 +167,7 @@ def _trilinear(values, i, j, k, t, s, r):
                    + s * ((1.0 - r) * values[i + 1, j + 1, k] + r * values[i + 1, j + 1, k + 1])))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, table):
     """(G [kg/(s m^2)], status): mass flux of the isentropic expansion from the upstream stagnation state
     (T_up [K], rho_up [kg/m^3], p_up [Pa]) to p_down [Pa] (docs/model.md §7.4; module docstring):
@@ -185,12 +185,11 @@ def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, t
         upstream = 1.0                   # keeps the arithmetic below finite; the flux is NaN
         if status == STATUS_OK:
             status = STATUS_INVALID_STATE
-    critical = _bilinear(table.critical_ratio, i, j, t, s)
-    sigma = (1.0 - pressure_down / upstream) / (1.0 - critical) if critical < 1.0 else 0.0
-    if sigma > 1.0:
-        sigma = 1.0
-    elif not sigma > 0.0:                # p_down >= p_up (and NaN): no flow
-        sigma = 0.0
+    critical = _bilinear(table.critical_ratio, i, j, t, s)         # in (0.06, 1) by construction, or NaN
+    sigma = (1.0 - pressure_down / upstream) / (1.0 - critical)
+    # selects, not an if/elif (which cost about 50 ns here in numba); NaN and p_down >= p_up give 0: no flow
+    sigma = sigma if sigma > 0.0 else 0.0
+    sigma = sigma if sigma < 1.0 else 1.0
     position = sigma * table.inverse_sigma_step
     k = min(int(position), table.shape_factor.shape[2] - 2)
     r = position - k
@@ -200,13 +199,13 @@ def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, t
                          * (1.0 - gap * gap * shape))) if sigma > 0.0 else 0.0
     if status != STATUS_OK:
         flux = np.nan
-    # branch-free (a branch on the interpolated superheat cost about 50 ns in numba)
+    # branch-free, as above
     near = _trilinear(table.throat_superheat, i, j, k, t, s, r) < table.superheat_margin
     status += STATUS_THROAT_NEAR_SATURATION * (status == STATUS_OK) * near
     return flux, status
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, density_a, pressure_a, temperature_b,
                                 density_b, pressure_b, table):
     """(m_dot [kg/s], status): mass flow from side a to side b through a real-gas isentropic nozzle of area A and
@@ -218,19 +217,18 @@ def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, dens
         |p_up - p_down| <  eps p_up:  m_dot = C_d A G(up, (1 - eps) p_up) (p_up - p_down)/(eps p_up)
     (continuous at the band edge; at the critical ratio G is continuous with a zero slope). A <= 0 gives 0.
     """
-    forward = pressure_a >= pressure_b
-    if forward:
-        temperature, density, upstream, downstream = temperature_a, density_a, pressure_a, pressure_b
-    else:
-        temperature, density, upstream, downstream = temperature_b, density_b, pressure_b, pressure_a
+    forward = pressure_a >= pressure_b           # selects throughout (branches cost tens of ns here in numba)
+    temperature = temperature_a if forward else temperature_b
+    density = density_a if forward else density_b
+    upstream = pressure_a if forward else pressure_b
+    downstream = pressure_b if forward else pressure_a
     band = LINEAR_FLOW_BAND * upstream
-    difference = upstream - downstream
-    scale = discharge_coefficient * area if area > 0.0 else 0.0
-    if difference < band:                      # linear band: the flux at the band edge, scaled
-        downstream = upstream - band
-        scale *= difference / band
-    flux, status = real_gas_mass_flux(temperature, density, upstream, downstream, table)
-    flow = scale * flux if area > 0.0 else 0.0      # a closed gap passes nothing, whatever the upstream status
+    difference = upstream - downstream           # >= 0, so inside the band band > 0
+    inside = difference < band
+    flux, status = real_gas_mass_flux(temperature, density, upstream, upstream - band if inside else downstream,
+                                      table)
+    scale = discharge_coefficient * area * (difference / band if inside else 1.0)
+    flow = scale * flux if area > 0.0 else 0.0   # a closed gap passes nothing, whatever the upstream status
     return (flow if forward else -flow), status
 
 
