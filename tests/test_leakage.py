@@ -5,7 +5,7 @@ References, independent of the code under test:
   itself cannot be imported here (a Cython extension built against CoolProp's old `State` class), so its formula
   is transcribed below in PDSim's own form (coefficient list, Lstar = t/0.005, delta_star = delta/10e-6) and the
   module must reproduce it wherever it is >= 1 (the module clamps it at 1, a documented decision).
-- closed forms: the valley curvature from the offset stator curve of docs/model.md §2.4-2.5, evaluated numerically
+- closed forms: the valley curvature from the offset stator curve of docs/model.md §2.4-§2.5, evaluated numerically
   with the independent harmonic pitch curve of conftest.py; the friction integral by quadrature; the Fanno
   reference against the incompressible limit and a direct ODE integration.
 """
@@ -23,7 +23,8 @@ from rotary_vane.thermo.leakage import (LAW_FRICTION_CORRECTED, LAW_NOZZLE, LEAK
                                         fanno_channel_mass_flux, fanno_equivalent_discharge_coefficient,
                                         friction_flow_ratio, friction_length, gap_region_length, gap_reynolds_number,
                                         harmonic_valley_seal_radius, leakage_flux, leakage_law_code,
-                                        signed_leakage_flow, signed_real_gas_leakage_flow, valley_seal_radius)
+                                        pdsim_friction_ratio, signed_leakage_flow, signed_real_gas_leakage_flow,
+                                        valley_seal_radius)
 from rotary_vane.thermo.nozzle import isentropic_nozzle_mass_flow
 from rotary_vane.thermo.property_table import STATUS_OK, envelope_for
 from rotary_vane.thermo.real_gas_nozzle import nozzle_table_for, real_gas_mass_flux, signed_real_gas_nozzle_flow
@@ -80,6 +81,7 @@ def test_friction_ratio_reproduces_pdsim():
             for reynolds in (0.0, 1e-13, 10.0, 300.0, 2000.0, 5000.0, 5243.58, 5500.0, 8000.0, 2e4, 1e5, 1e6):
                 expected = pdsim_mdot_ratio(delta, length, reynolds)
                 value = friction_flow_ratio(delta, length, reynolds)
+                assert pdsim_friction_ratio(delta, length, reynolds) == pytest.approx(expected, rel=1e-13, abs=0.0)
                 if expected >= 1.0:
                     assert value == pytest.approx(expected, rel=1e-13, abs=0.0), (delta, length, reynolds)
                     checked += 1

@@ -36,7 +36,7 @@ height delta with the same viscous (Poiseuille, dp/dx ~ 1/h^3) and the same turb
 for a flat part L_flat (a bottom dwell) between two parabolic flanks of radii R_a, R_b; (3 pi / 8) sqrt(2 R delta)
 for a symmetric line seal. The Reynolds number G 2 delta / mu does not depend on h at a given mass flow, so the
 friction factor is the same along the gap and the equivalence holds in both regimes (it ignores compressibility,
-which concentrates the loss at the throat). The stator's curvature at a valley follows from docs/model.md §2.4-2.5
+which concentrates the loss at the throat). The stator's curvature at a valley follows from docs/model.md §2.4-§2.5
 (`valley_seal_radius`): 37.86 mm for the default machine.
 
 `fanno_channel_mass_flux` is an independent, slower reference (Python): isentropic acceleration into a channel of
@@ -73,18 +73,25 @@ _A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, _A8, _A9, _A10 = RADIAL_COEFFICIENTS
 # numba kernels
 
 @numba.njit(cache=True)
-def friction_flow_ratio(gap_height, flow_length, reynolds_number):
-    """phi = m_dot_nozzle / m_dot_friction of the hybrid leakage model (module docstring; Bell et al. 2013, PDSim
-    TYPE_RADIAL), clamped at FRICTION_RATIO_FLOOR = 1; 1 for Re <= 1e-12 (as PDSim). docs/model.md §7.4."""
+def pdsim_friction_ratio(gap_height, flow_length, reynolds_number):
+    """PDSim's mdot_ratio of FrictionCorrectedIsentropicNozzle, TYPE_RADIAL, as PDSim computes it (not clamped):
+    the correlation of the module docstring; 1 for Re <= 1e-12."""
     if not reynolds_number > 1e-12:
         return 1.0
     weight = 1.0 / (1.0 + math.exp(-0.01 * (reynolds_number - TRANSITION_REYNOLDS)))
     length = flow_length / LENGTH_SCALE
     gap = gap_height / GAP_SCALE
-    ratio = (_A0 * length ** _A1 / (_A2 * gap + _A3)
-             * (weight * (_A4 * reynolds_number ** _A5 + _A6)
-                + (1.0 - weight) * (_A7 * reynolds_number ** _A8 + _A9))
-             + _A10)
+    return (_A0 * length ** _A1 / (_A2 * gap + _A3)
+            * (weight * (_A4 * reynolds_number ** _A5 + _A6)
+               + (1.0 - weight) * (_A7 * reynolds_number ** _A8 + _A9))
+            + _A10)
+
+
+@numba.njit(cache=True)
+def friction_flow_ratio(gap_height, flow_length, reynolds_number):
+    """phi = m_dot_nozzle / m_dot_friction of the hybrid leakage model (module docstring; Bell et al. 2013, PDSim
+    TYPE_RADIAL): `pdsim_friction_ratio` clamped at FRICTION_RATIO_FLOOR = 1. docs/model.md §7.4."""
+    ratio = pdsim_friction_ratio(gap_height, flow_length, reynolds_number)
     return ratio if ratio > FRICTION_RATIO_FLOOR else FRICTION_RATIO_FLOOR
 
 
@@ -206,7 +213,7 @@ def equivalent_gap_radius(convex_radius, concave_radius=math.inf):
 
 
 def valley_seal_radius(rotor_radius, tip_radius, stator_clearance, displacement_curvature):
-    """R [m] of the valley gap between the rotor and the stator (docs/model.md §2.4-2.5, §7.4).
+    """R [m] of the valley gap between the rotor and the stator (docs/model.md §2.4-§2.5, §7.4).
 
     At a valley r = R0 = R_r - rho, r' = 0 and r'' = s'' (the displacement law's second derivative there:
     (h/2) z^2 for the harmonic law, 0 inside a bottom dwell, (h/2)(pi/beta_r)^2 just beyond it), so the pitch
