@@ -272,10 +272,9 @@ class _Isentrope:
         _, temperature, density = min(self.known, key=lambda k: abs(k[0] - ratio))
         target = ratio * self.pressure
         log_density = math.log(density)
-        state = self.fluid._gas
         for _ in range(40):
             density = math.exp(log_density)
-            state.update(CP.DmassT_INPUTS, density, temperature)
+            state = self.fluid.gas_branch_state(temperature, density)
             dp_dt = state.first_partial_deriv(CP.iP, CP.iT, CP.iDmass)
             dp_dx = density * state.first_partial_deriv(CP.iP, CP.iDmass, CP.iT)
             heat_capacity = state.cvmass()
@@ -294,7 +293,7 @@ class _Isentrope:
                 break
             if abs(step_t) < ISENTROPE_TOLERANCE * temperature and abs(step_x) < ISENTROPE_TOLERANCE:
                 density = math.exp(log_density)
-                state.update(CP.DmassT_INPUTS, density, temperature)
+                state = self.fluid.gas_branch_state(temperature, density)
                 sound = math.sqrt(state.first_partial_deriv(CP.iP, CP.iDmass, CP.iSmass))
                 self.known.append((ratio, temperature, density))
                 return temperature, density, state.hmass(), sound
