@@ -251,6 +251,22 @@ def table_viscosity(temperature, density, table):
 # ----------------------------------------------------------------------------------------------------------
 # direct computation from HEOS (build, checks)
 
+_GAS_BRANCH_STATES = {}
+
+
+def _gas_branch(fluid: Fluid):
+    """A HEOS AbstractState of the fluid with the gas phase imposed (as `Fluid.gas_branch_state`), without the
+    equation of state's temperature-range check: a throat a few kelvin below the triple point (CO2 expanding from
+    near its dome at low pressure) is evaluated on the smooth continuation of the gas branch, and flagged by its
+    superheat, instead of failing the node."""
+    if fluid.coolprop_name not in _GAS_BRANCH_STATES:
+        CP = coolprop()
+        state = CP.AbstractState("HEOS", fluid.coolprop_name)
+        state.specify_phase(CP.iphase_gas)
+        _GAS_BRANCH_STATES[fluid.coolprop_name] = state
+    return _GAS_BRANCH_STATES[fluid.coolprop_name]
+
+
 class _Isentrope:
     """Points of the isentrope s = s0 through an upstream (T0, rho0) on the gas branch of HEOS, by Newton's method in
     (T, ln rho) on p(T, rho) = p and s(T, rho) = s0, warm-started from the nearest point computed so far."""
@@ -272,9 +288,10 @@ class _Isentrope:
         _, temperature, density = min(self.known, key=lambda k: abs(k[0] - ratio))
         target = ratio * self.pressure
         log_density = math.log(density)
+        state = _gas_branch(self.fluid)
         for _ in range(40):
             density = math.exp(log_density)
-            state = self.fluid.gas_branch_state(temperature, density)
+            state.update(CP.DmassT_INPUTS, density, temperature)
             dp_dt = state.first_partial_deriv(CP.iP, CP.iT, CP.iDmass)
             dp_dx = density * state.first_partial_deriv(CP.iP, CP.iDmass, CP.iT)
             heat_capacity = state.cvmass()
@@ -293,7 +310,7 @@ class _Isentrope:
                 break
             if abs(step_t) < ISENTROPE_TOLERANCE * temperature and abs(step_x) < ISENTROPE_TOLERANCE:
                 density = math.exp(log_density)
-                state = self.fluid.gas_branch_state(temperature, density)
+                state.update(CP.DmassT_INPUTS, density, temperature)
                 sound = math.sqrt(state.first_partial_deriv(CP.iP, CP.iDmass, CP.iSmass))
                 self.known.append((ratio, temperature, density))
                 return temperature, density, state.hmass(), sound
