@@ -44,6 +44,11 @@ For codes 1-7 the flux is NaN.
 
 Tables are cached on disk per fluid, envelope, grid, format version and CoolProp version (`nozzle_table_for`), in
 the property tables' cache folder.
+
+Measured (benchmarks/bench_nozzle.py, default 64 x 64 x 17 grid, 1.23 MB, 3-7 s to build with its check): worst
+relative error against CoolProp's equilibrium expansion where upstream and throat are gas beyond the margin
+2.2e-4 (R134a), 4.8e-4 (R410A), 1.2e-4 (air), 2.4e-3 (CO2, next to its critical point); 26-45 ns per
+`real_gas_mass_flux` and 36-52 ns per `signed_real_gas_nozzle_flow` inside numba (the ideal-gas nozzle: 31-46 ns).
 """
 from __future__ import annotations
 
