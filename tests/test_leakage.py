@@ -18,7 +18,7 @@ from scipy.integrate import quad, solve_ivp
 
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, signed_nozzle_flow
 from rotary_vane.thermo.fluid import Fluid, coolprop
-from rotary_vane.thermo.leakage import (LAW_FRICTION_CORRECTED, LAW_NOZZLE, LEAKAGE_LAWS, darcy_friction_factor,
+from rotary_vane.thermo.leakage import (LAW_FRICTION_CORRECTED, LAW_NOZZLE, LAW_SEALED, LEAKAGE_LAWS, darcy_friction_factor,
                                         equivalent_discharge_coefficient, equivalent_gap_radius,
                                         fanno_channel_mass_flux, fanno_equivalent_discharge_coefficient,
                                         friction_flow_ratio, friction_length, gap_region_length, gap_reynolds_number,
@@ -201,6 +201,22 @@ def test_signed_friction_flow_symmetry_band_and_closed_gap(ideal_r134a, nozzle_t
                                         table)[0] == 0.0
 
 
+def test_sealed_law_passes_nothing_whatever_the_states(ideal_r134a, nozzle_table):
+    """"sealed" (an oil-sealed path) gives 0 at any gap and pressure difference, and status 0 even for an upstream
+    state the table refuses (T = 1 K): it costs no look-up; C_d,eq = 0."""
+    gas = ideal_r134a
+    fluid, table = nozzle_table
+    assert signed_leakage_flow(LAW_SEALED, 0.65, 50e-6, 1e-3, AXIAL_LENGTH, 1.0e6, 330.0, 0.3e6, 300.0, gas["k"],
+                               gas["R"], 1.3e-5, 1.2e-5) == 0.0
+    density = fluid.density(330.0, 1.0e6)
+    assert signed_real_gas_leakage_flow(LAW_SEALED, 0.65, 50e-6, 1e-3, AXIAL_LENGTH, 330.0, density, 1.0e6, 1.0,
+                                        1.0, 0.3e6, table) == (0.0, STATUS_OK)
+    assert signed_real_gas_leakage_flow(LAW_NOZZLE, 0.65, 50e-6, 1e-3, AXIAL_LENGTH, 1.0, 1.0, 1.0e6, 1.0,
+                                        1.0, 0.3e6, table)[1] != STATUS_OK
+    assert equivalent_discharge_coefficient(50e-6, 1e-3, 1e6, 330.0, 0.3e6, gas["k"], gas["R"], gas["viscosity"],
+                                            law="sealed") == 0.0
+
+
 # --- the Fanno-channel reference --------------------------------------------------------------------------
 
 def test_fanno_reference_incompressible_limit(ideal_r134a):
@@ -299,8 +315,8 @@ def test_equivalent_gap_radius():
 
 def test_bad_arguments_name_the_variable(ideal_r134a):
     gas = ideal_r134a
-    assert [leakage_law_code(name) for name in LEAKAGE_LAWS] == [LAW_NOZZLE, LAW_FRICTION_CORRECTED]
-    with pytest.raises(ValueError, match="leakage_law='fanno'.*nozzle, friction_corrected"):
+    assert [leakage_law_code(name) for name in LEAKAGE_LAWS] == [LAW_NOZZLE, LAW_FRICTION_CORRECTED, LAW_SEALED]
+    with pytest.raises(ValueError, match="leakage_law='fanno'.*nozzle, friction_corrected, sealed"):
         leakage_law_code("fanno")
     with pytest.raises(ValueError, match="gap_height=-1e-05"):
         friction_length(-1e-5, 0.038)

@@ -7,6 +7,7 @@ the laws LEAKAGE_LAWS:
 
 - "nozzle" (code LAW_NOZZLE): an isentropic nozzle with a discharge coefficient,  m_dot = C_d delta W G.
   With the ideal-gas flux this is exactly today's path (control_volume.signed_nozzle_flow with A = delta W).
+- "sealed" (code LAW_SEALED): no flow (a path closed by an oil film, or switched off).
 - "friction_corrected" (code LAW_FRICTION_CORRECTED): the hybrid leakage model of Bell, Groll, Braun and Horton
   (Int. J. Refrig. 36 (2013) 1965-1973) as PDSim implements it (`FrictionCorrectedIsentropicNozzle`,
   PDSim/flow/flow_models.pyx, type TYPE_RADIAL, the flow across a gap of constant height delta and length t):
@@ -47,16 +48,18 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from .control_volume import LINEAR_FLOW_BAND, signed_nozzle_flow
+from .kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
-from .real_gas_nozzle import real_gas_mass_flux, signed_real_gas_nozzle_flow, table_viscosity
+from .property_table import STATUS_OK
+from .real_gas_nozzle import nozzle_flux_between, table_viscosity
 
-LEAKAGE_LAWS = ("nozzle", "friction_corrected")
+LEAKAGE_LAWS = ("nozzle", "friction_corrected", "sealed")
 LAW_NOZZLE = 0
 LAW_FRICTION_CORRECTED = 1
+LAW_SEALED = 2                  # the path passes nothing (e.g. an oil-sealed slot, docs/model.md §7.4)
 
 # PDSim/flow/flow_models.pyx (ibell/pdsim): ar_0 ... ar_10 and Re_star_radial of FrictionCorrectedIsentropicNozzle
 RADIAL_COEFFICIENTS = (25932.1070099, 0.914825434095, -177.588568125, -0.237052788124, -172347.610527,
@@ -72,7 +75,7 @@ _A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, _A8, _A9, _A10 = RADIAL_COEFFICIENTS
 # ----------------------------------------------------------------------------------------------------------
 # numba kernels
 
-@numba.njit(cache=True)
+@kernel
 def pdsim_friction_ratio(gap_height, flow_length, reynolds_number):
     """PDSim's mdot_ratio of FrictionCorrectedIsentropicNozzle, TYPE_RADIAL, as PDSim computes it (not clamped):
     the correlation of the module docstring; 1 for Re <= 1e-12."""
@@ -87,7 +90,7 @@ def pdsim_friction_ratio(gap_height, flow_length, reynolds_number):
             + _A10)
 
 
-@numba.njit(cache=True)
+@kernel
 def friction_flow_ratio(gap_height, flow_length, reynolds_number):
     """phi = m_dot_nozzle / m_dot_friction of the hybrid leakage model (module docstring; Bell et al. 2013, PDSim
     TYPE_RADIAL): `pdsim_friction_ratio` clamped at FRICTION_RATIO_FLOOR = 1. docs/model.md §7.4."""
@@ -95,21 +98,24 @@ def friction_flow_ratio(gap_height, flow_length, reynolds_number):
     return ratio if ratio > FRICTION_RATIO_FLOOR else FRICTION_RATIO_FLOOR
 
 
-@numba.njit(cache=True)
+@kernel
 def leakage_flux(law, discharge_coefficient, gap_height, flow_length, nozzle_flux, viscosity):
     """Mass flux through the gap area delta W [kg/(s m^2)] given the upstream isentropic nozzle flux G (C_d = 1)
     [kg/(s m^2)] and the upstream viscosity mu [Pa s] (docs/model.md §7.4):
 
         LAW_NOZZLE:              C_d G
         LAW_FRICTION_CORRECTED:  G / phi(delta, L, Re),   Re = G 2 delta / mu
+        LAW_SEALED:              0
     """
     if law == LAW_FRICTION_CORRECTED:
         reynolds = nozzle_flux * 2.0 * gap_height / viscosity if viscosity > 0.0 else np.inf
         return nozzle_flux / friction_flow_ratio(gap_height, flow_length, reynolds)
+    if law == LAW_SEALED:
+        return 0.0
     return discharge_coefficient * nozzle_flux
 
 
-@numba.njit(cache=True)
+@kernel
 def signed_leakage_flow(law, discharge_coefficient, gap_height, flow_length, width, pressure_a, temperature_a,
                         pressure_b, temperature_b, heat_capacity_ratio, gas_constant, viscosity_a, viscosity_b):
     """Mass flow [kg/s] from side a to side b through a gap (ideal-gas nozzle flux, docs/model.md §7.4); negative
@@ -119,8 +125,10 @@ def signed_leakage_flow(law, discharge_coefficient, gap_height, flow_length, wid
     same sign convention and linear band: with eps = LINEAR_FLOW_BAND,
         |p_up - p_down| >= eps p_up:  m_dot = delta W G(p_up, T_up -> p_down) / phi
         |p_up - p_down| <  eps p_up:  m_dot = [the same at p_down = (1 - eps) p_up] (p_up - p_down)/(eps p_up)
-    A gap of height <= 0 passes nothing.
+    A gap of height <= 0 and LAW_SEALED pass nothing.
     """
+    if law == LAW_SEALED:
+        return 0.0
     area = gap_height * width
     if law != LAW_FRICTION_CORRECTED:
         return signed_nozzle_flow(discharge_coefficient, area, pressure_a, temperature_a, pressure_b, temperature_b,
@@ -140,35 +148,71 @@ def signed_leakage_flow(law, discharge_coefficient, gap_height, flow_length, wid
     return flow if forward else -flow
 
 
-@numba.njit(cache=True, _nrt=False)
+@kernel
+def leakage_path_open(law, gap_height, width):
+    """True unless the path is LAW_SEALED or its gap closed (delta <= 0 or W <= 0): then it passes nothing."""
+    return law != LAW_SEALED and gap_height > 0.0 and width > 0.0
+
+
+@kernel
+def real_gas_leakage_flow(law, discharge_coefficient, gap_height, flow_length, width, flux, factor,
+                          temperature_up, density_up, nozzle_table):
+    """Mass flow [kg/s] through a gap between two sides whose real-gas nozzle flux G and signed factor are given
+    (thermo.real_gas_nozzle.nozzle_flux_between, flow from side a to side b positive), the upstream state
+    (T, rho) for the viscosity (docs/model.md §7.4):
+
+        LAW_NOZZLE:              C_d delta W G factor
+        LAW_FRICTION_CORRECTED:  delta W G / phi(delta, L, Re) factor,   Re = G 2 delta / mu_up
+        LAW_SEALED, closed gap:  0
+
+    Inside the linear band G is the band-edge flux, so the law is evaluated at the band edge and scaled."""
+    if not leakage_path_open(law, gap_height, width):
+        return 0.0
+    area = gap_height * width
+    if law == LAW_FRICTION_CORRECTED:
+        return area * leakage_flux(law, 1.0, gap_height, flow_length, flux,
+                                   table_viscosity(temperature_up, density_up, nozzle_table)[0]) * factor
+    return discharge_coefficient * area * flux * factor
+
+
+@kernel
 def signed_real_gas_leakage_flow(law, discharge_coefficient, gap_height, flow_length, width, temperature_a,
                                  density_a, pressure_a, temperature_b, density_b, pressure_b, nozzle_table):
     """(m_dot [kg/s], status): mass flow from side a to side b through a gap with the real-gas nozzle flux and the
-    upstream viscosity of `nozzle_table` (thermo.real_gas_nozzle; docs/model.md §7.4); negative from b to a; status
-    that of the upstream state (real_gas_nozzle status codes).
+    upstream viscosity of `nozzle_table` (`real_gas_leakage_flow` of `nozzle_flux_between`; docs/model.md §7.4);
+    negative from b to a; status that of the upstream state (real_gas_nozzle status codes). LAW_NOZZLE is
+    signed_real_gas_nozzle_flow with A = delta W. A closed gap and LAW_SEALED pass nothing with status 0, whatever
+    the states, and cost no table look-up."""
+    if not leakage_path_open(law, gap_height, width):
+        return 0.0, STATUS_OK
+    flux, factor, status = nozzle_flux_between(temperature_a, density_a, pressure_a, temperature_b, density_b,
+                                               pressure_b, nozzle_table)
+    forward = factor >= 0.0
+    return real_gas_leakage_flow(law, discharge_coefficient, gap_height, flow_length, width, flux, factor,
+                                 temperature_a if forward else temperature_b, density_a if forward else density_b,
+                                 nozzle_table), status
 
-    LAW_NOZZLE is signed_real_gas_nozzle_flow with A = delta W. LAW_FRICTION_CORRECTED: delta W G / phi with the
-    linear band of signed_real_gas_nozzle_flow (the law evaluated at the band edge, scaled). Compiled without
-    reference counting, like the nozzle kernels (it only reads the table).
-    """
-    area = gap_height * width if gap_height > 0.0 and width > 0.0 else 0.0
-    if law != LAW_FRICTION_CORRECTED:
-        return signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, density_a, pressure_a,
-                                           temperature_b, density_b, pressure_b, nozzle_table)
-    forward = pressure_a >= pressure_b
-    temperature = temperature_a if forward else temperature_b
-    density = density_a if forward else density_b
-    upstream = pressure_a if forward else pressure_b
-    downstream = pressure_b if forward else pressure_a
-    band = LINEAR_FLOW_BAND * upstream
-    difference = upstream - downstream
-    inside = difference < band
-    flux, status = real_gas_mass_flux(temperature, density, upstream, upstream - band if inside else downstream,
-                                      nozzle_table)
-    viscosity = table_viscosity(temperature, density, nozzle_table)[0]
-    flow = area * leakage_flux(LAW_FRICTION_CORRECTED, 1.0, gap_height, flow_length, flux, viscosity) * (
-        difference / band if inside else 1.0) if area > 0.0 else 0.0
-    return (flow if forward else -flow), status
+
+@kernel
+def parabolic_flank_length(gap_height, radius):
+    """Friction-equivalent length [m] of one flank h = delta + x^2/(2 R), x from 0 to infinity (docs/model.md §7.4):
+    delta^3 int dx/h^3 = (3 pi / 16) sqrt(2 R delta). Two flanks make a line seal."""
+    return 3.0 * math.pi / 16.0 * math.sqrt(2.0 * radius * gap_height)
+
+
+@kernel
+def tapered_gap_length(gap_a, gap_b, length):
+    """Friction-equivalent length [m] of a gap whose height varies linearly from delta_a to delta_b over `length`
+    (the vane's side face against the slot wall, docs/model.md §7.4), referred to its narrowest height
+    delta = min(delta_a, delta_b):
+
+        L_eq = delta^3 int dx/h^3 = length delta^3 (delta_a + delta_b) / (2 delta_a^2 delta_b^2)
+
+    (= length for a parallel gap); `length` for a closed gap, which passes nothing anyway."""
+    narrowest = min(gap_a, gap_b)
+    if not narrowest > 0.0:
+        return length
+    return length * narrowest ** 3 * (gap_a + gap_b) / (2.0 * gap_a * gap_a * gap_b * gap_b)
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -260,8 +304,7 @@ def friction_length(gap_height, radius_a, radius_b=None, flat_length=0.0):
     radius_a = _positive("radius_a", radius_a, "m")
     radius_b = radius_a if radius_b is None else _positive("radius_b", radius_b, "m")
     flat_length = _non_negative("flat_length", flat_length, "m")
-    return flat_length + 3.0 * math.pi / 16.0 * math.sqrt(2.0 * gap_height) * (math.sqrt(radius_a)
-                                                                              + math.sqrt(radius_b))
+    return flat_length + parabolic_flank_length(gap_height, radius_a) + parabolic_flank_length(gap_height, radius_b)
 
 
 def gap_region_length(gap_height, radius, factor=2.0):

@@ -58,10 +58,10 @@ import warnings
 from pathlib import Path
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
 from .control_volume import LINEAR_FLOW_BAND
+from .kernel import kernel
 from .fluid import Fluid, coolprop
 from .property_table import (DEFAULT_TEMPERATURE_NODES as PROPERTY_TEMPERATURE_NODES, DOME_REFINEMENT, STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE,
                              STATUS_INACCURATE_CELL, STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK,
@@ -108,14 +108,14 @@ ARRAY_FIELDS = NozzleTable._fields[9:]
 
 
 # ----------------------------------------------------------------------------------------------------------
-# numba kernels
+# numba kernels (thermo.kernel: numpy's error model, no exception can leave them)
 #
 # The evaluation kernels only read the table, so they are compiled without numba's reference counting
-# (_nrt=False): passing the NamedTuple of seven arrays into a call otherwise costs an atomic incref/decref pair
+# (`@kernel`): passing the NamedTuple of seven arrays into a call otherwise costs an atomic incref/decref pair
 # per array, which measured 50 ns per signed flow (3 times the evaluation itself). A kernel compiled so may not
 # allocate (no arrays created, no lists); nozzle_table_from_arrays, which builds a NamedTuple of arrays, keeps it.
 
-@numba.njit(cache=True)
+@kernel(allocates=True)
 def nozzle_table_from_arrays(header, critical_ratio, choked_flux_factor, shape_factor, throat_superheat, viscosity,
                              dome_log_density_limit, accurate_cell):
     """Rebuild a NozzleTable inside nopython code from the arrays of `nozzle_table_arrays(table)` (passing arrays
@@ -126,7 +126,7 @@ def nozzle_table_from_arrays(header, critical_ratio, choked_flux_factor, shape_f
                        dome_log_density_limit, accurate_cell)
 
 
-@numba.njit(cache=True, _nrt=False)
+@kernel
 def _locate(temperature, density, table):
     """(status, i, j, t, s): the (T, ln rho) cell of an upstream state and the local coordinates in [0, 1]
     (one exit: an early return costs about as much as the whole evaluation in numba)."""
@@ -163,13 +163,13 @@ def _locate(temperature, density, table):
     return status, i, j, t, s
 
 
-@numba.njit(cache=True, _nrt=False)
+@kernel
 def _bilinear(values, i, j, t, s):
     return ((1.0 - t) * ((1.0 - s) * values[i, j] + s * values[i, j + 1])
             + t * ((1.0 - s) * values[i + 1, j] + s * values[i + 1, j + 1]))
 
 
-@numba.njit(cache=True, _nrt=False)
+@kernel
 def _trilinear(values, i, j, k, t, s, r):
     return ((1.0 - t) * ((1.0 - s) * ((1.0 - r) * values[i, j, k] + r * values[i, j, k + 1])
                          + s * ((1.0 - r) * values[i, j + 1, k] + r * values[i, j + 1, k + 1]))
@@ -177,7 +177,7 @@ def _trilinear(values, i, j, k, t, s, r):
                    + s * ((1.0 - r) * values[i + 1, j + 1, k] + r * values[i + 1, j + 1, k + 1])))
 
 
-@numba.njit(cache=True, _nrt=False)
+@kernel
 def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, table):
     """(G [kg/(s m^2)], status): mass flux of the isentropic expansion from the upstream stagnation state
     (T_up [K], rho_up [kg/m^3], p_up [Pa]) to p_down [Pa] (docs/model.md §7.4; module docstring):
@@ -215,17 +215,18 @@ def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, t
     return flux, status
 
 
-@numba.njit(cache=True, _nrt=False)
-def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, density_a, pressure_a, temperature_b,
-                                density_b, pressure_b, table):
-    """(m_dot [kg/s], status): mass flow from side a to side b through a real-gas isentropic nozzle of area A and
-    discharge coefficient C_d (docs/model.md §7.4), negative when the gas flows from b to a; status is that of
-    the upstream side's `real_gas_mass_flux`.
+@kernel
+def nozzle_flux_between(temperature_a, density_a, pressure_a, temperature_b, density_b, pressure_b, table):
+    """(G [kg/(s m^2)], factor, status): the real-gas isentropic flux of the upstream side towards the other side's
+    pressure and the signed factor such that the flow from side a to side b through a nozzle of area A and
+    discharge coefficient C_d is C_d A G factor (docs/model.md §7.4). With eps = LINEAR_FLOW_BAND:
 
-    Same sign convention and linear band as `control_volume.signed_nozzle_flow`: with eps = LINEAR_FLOW_BAND,
-        |p_up - p_down| >= eps p_up:  m_dot = C_d A G(up, p_down)
-        |p_up - p_down| <  eps p_up:  m_dot = C_d A G(up, (1 - eps) p_up) (p_up - p_down)/(eps p_up)
-    (continuous at the band edge; at the critical ratio G is continuous with a zero slope). A <= 0 gives 0.
+        |p_up - p_down| >= eps p_up:  G = G(up, p_down),           factor = +-1
+        |p_up - p_down| <  eps p_up:  G = G(up, (1 - eps) p_up),   factor = +-(p_up - p_down)/(eps p_up)
+
+    the sign + from a to b. The same linear band as `control_volume.signed_nozzle_flow`: continuous at the band
+    edge, and at the critical ratio G is continuous with a zero slope. status: the upstream side's
+    `real_gas_mass_flux`. One flux serves every path between the same two sides (a port and a seal).
     """
     forward = pressure_a >= pressure_b           # selects throughout (branches cost tens of ns here in numba)
     temperature = temperature_a if forward else temperature_b
@@ -237,12 +238,23 @@ def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, dens
     inside = difference < band
     flux, status = real_gas_mass_flux(temperature, density, upstream, upstream - band if inside else downstream,
                                       table)
-    scale = discharge_coefficient * area * (difference / band if inside else 1.0)
-    flow = scale * flux if area > 0.0 else 0.0   # a closed gap passes nothing, whatever the upstream status
-    return (flow if forward else -flow), status
+    factor = difference / band if inside else 1.0
+    return flux, (factor if forward else -factor), status
 
 
-@numba.njit(cache=True, _nrt=False)
+@kernel
+def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, density_a, pressure_a, temperature_b,
+                                density_b, pressure_b, table):
+    """(m_dot [kg/s], status): mass flow from side a to side b through a real-gas isentropic nozzle of area A and
+    discharge coefficient C_d (docs/model.md §7.4), negative when the gas flows from b to a: C_d A G factor of
+    `nozzle_flux_between` (its linear band, the sign convention of `control_volume.signed_nozzle_flow`). A <= 0
+    gives 0, whatever the upstream status."""
+    flux, factor, status = nozzle_flux_between(temperature_a, density_a, pressure_a, temperature_b, density_b,
+                                               pressure_b, table)
+    return (discharge_coefficient * area * flux * factor if area > 0.0 else 0.0), status
+
+
+@kernel
 def table_viscosity(temperature, density, table):
     """(mu [Pa s], status): dynamic viscosity of the upstream state (bilinear in (T, ln rho); for the Reynolds
     number of the leakage laws, thermo.leakage). NaN unless status == 0."""
