@@ -252,3 +252,29 @@ def lobe_area(params, panels=64, order=16):
     nodes = (edges[:-1, None] + half[:, None] * (x[None, :] + 1.0)).ravel()
     weights = (half[:, None] * w[None, :]).ravel()
     return _lobe_integral(nodes, weights, *law_arguments(params), params.envelope_offset, params.rotor_radius)
+
+
+def valley_seal_length(params) -> float:
+    """Friction-equivalent flow length [m] of the seal between the rotor and the stator at a valley
+    (docs/model.md §7.4):
+
+        L_eq = delta^3 int ds / g(u)^3,   g(u) = |S(u)| - R_r,   ds = |S'(u)| du,   delta = g(valley) = c_S
+
+    over the lobe on both sides of the valley (the laws are even about it), with the stator of §2.5: a bottom dwell
+    is a concentric stretch (g = c_S: L_flat = (R_r + c_S) beta0), a harmonic flank the parabolic gap of the
+    curvatures at the valley ((3 pi/16) sqrt(2 R c_S) each, thermo.leakage), and the cycloidal and 3-4-5 laws,
+    whose curvature at the valley is the rotor's, a gap growing with the cube of the angle. 0 at c_S = 0 (closed)."""
+    from scipy.integrate import quad          # set-up only: the FMU's start does not pay for scipy otherwise
+    gap = params.stator_clearance
+    if gap == 0.0:
+        return 0.0
+    arguments = law_arguments(params) + (params.envelope_offset,)
+
+    def weight(u):
+        sx, sy, dx, dy, _ = stator_point(u, *arguments)
+        return (gap / (math.hypot(sx, sy) - params.rotor_radius)) ** 3 * math.hypot(dx, dy)
+
+    half_lobe = math.pi / params.lobes
+    dwell_end = 0.5 * params.bottom_dwell if params.displacement_law == "harmonic_dwell" else 0.0
+    points = [dwell_end] + [dwell_end + width for width in (1e-4, 1e-3, 1e-2, 1e-1) if dwell_end + width < half_lobe]
+    return 2.0 * quad(weight, 0.0, half_lobe, points=points, limit=400, epsabs=0.0, epsrel=1e-10)[0]
