@@ -13,13 +13,13 @@ import math
 
 import numpy as np
 import pytest
-from conftest import HarmonicPitch
+from conftest import HarmonicPitch, pdsim_mdot_ratio
 from scipy.integrate import quad, solve_ivp
 
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, signed_nozzle_flow
 from rotary_vane.thermo.fluid import Fluid, coolprop
-from rotary_vane.thermo.leakage import (LAW_FRICTION_CORRECTED, LAW_NOZZLE, LAW_SEALED, LEAKAGE_LAWS, darcy_friction_factor,
-                                        equivalent_discharge_coefficient, equivalent_gap_radius,
+from rotary_vane.thermo.leakage import (LAW_FRICTION_CORRECTED, LAW_NOZZLE, LAW_SEALED, LEAKAGE_LAWS,
+                                        darcy_friction_factor, equivalent_discharge_coefficient, equivalent_gap_radius,
                                         fanno_channel_mass_flux, fanno_equivalent_discharge_coefficient,
                                         friction_flow_ratio, friction_length, gap_region_length, gap_reynolds_number,
                                         harmonic_valley_seal_radius, leakage_flux, leakage_law_code,
@@ -32,24 +32,6 @@ from rotary_vane.thermo.real_gas_nozzle import nozzle_table_for, real_gas_mass_f
 # docs/model.md §7.1, §9: R134a duty and the default machine
 SUCTION_PRESSURE, SUCTION_TEMPERATURE, DISCHARGE_PRESSURE = 0.2928e6, 283.15, 1.3179e6
 ROTOR_RADIUS, TIP_RADIUS, STROKE, LOBES, AXIAL_LENGTH = 0.030, 0.002, 0.005, 3, 0.055
-
-# PDSim/flow/flow_models.pyx, as PDSim writes it (older versions keep exactly this list)
-A_RADIAL = [25932.1070099, 0.914825434095, -177.588568125, -0.237052788124, -172347.610527, -12.0687599808,
-            -0.0128861161041, -151.202604262, -0.999674457769, 0.0161435039267, 0.825533456725]
-RE_STAR_RADIAL = 5243.58194594
-
-
-def pdsim_mdot_ratio(delta, t, Re):
-    """PDSim's mdot_ratio for Type == TYPE_RADIAL (mdot_friction = mdot_nozzle / mdot_ratio); 1 for Re <= 1e-12."""
-    if not Re > 1e-12:
-        return 1.0
-    a = A_RADIAL
-    xi = 1.0 / (1.0 + math.exp(-0.01 * (Re - RE_STAR_RADIAL)))
-    Lstar = t / 0.005
-    delta_star = delta / 10e-6
-    return (a[0] * pow(Lstar, a[1]) / (a[2] * delta_star + a[3])
-            * (xi * (a[4] * pow(Re, a[5]) + a[6]) + (1 - xi) * (a[7] * pow(Re, a[8]) + a[9])) + a[10])
-
 
 def r134a_viscosity(pressure, temperature):
     state = coolprop().AbstractState("HEOS", "R134a")

@@ -12,7 +12,7 @@ import warnings
 import numba
 import numpy as np
 import pytest
-from scipy.optimize import minimize_scalar
+from conftest import IsentropicExpansion
 
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND
 from rotary_vane.thermo.fluid import Fluid, coolprop, typical_operating_point
@@ -48,47 +48,6 @@ def tables(cache_dir):
             built[name] = (fluid, envelope, nozzle_table_for(fluid, envelope, cache_dir=cache_dir))
         return built[name]
     return get
-
-
-class Reference:
-    """Isentropic expansion from (T0, rho0) with CoolProp's equilibrium flashes (independent of the module)."""
-
-    def __init__(self, fluid_name, temperature, density):
-        CP = coolprop()
-        self.state = CP.AbstractState("HEOS", fluid_name)
-        self.state.update(CP.DmassT_INPUTS, density, temperature)
-        self.pressure = self.state.p()
-        self.enthalpy = self.state.hmass()
-        self.entropy = self.state.smass()
-        self._choked = None
-
-    def expand(self, pressure):
-        """(G, T) at p on the isentrope."""
-        CP = coolprop()
-        self.state.update(CP.PSmass_INPUTS, pressure, self.entropy)
-        return self.state.rhomass() * math.sqrt(max(0.0, 2.0 * (self.enthalpy - self.state.hmass()))), self.state.T()
-
-    def two_phase(self, pressure):
-        """True if the isentrope is inside the dome at p (CoolProp's phase determination)."""
-        CP = coolprop()
-        self.state.update(CP.PSmass_INPUTS, pressure, self.entropy)
-        return self.state.phase() == CP.iphase_twophase
-
-    def choked(self):
-        """(p*, G*): G maximised over p in [0.3 p0, 0.99 p0] (pr* is 0.45-0.62 for these fluids)."""
-        if self._choked is None:
-            result = minimize_scalar(lambda ratio: -self.expand(ratio * self.pressure)[0], bounds=(0.3, 0.99),
-                                     method="bounded", options={"xatol": 1e-9})
-            self._choked = (result.x * self.pressure, -result.fun)
-        return self._choked
-
-    def flux(self, pressure_down):
-        """(G, throat T, throat p) for the expansion to p_down."""
-        critical, choked_flux = self.choked()
-        if pressure_down <= critical:
-            return choked_flux, self.expand(critical)[1], critical
-        flux, temperature = self.expand(pressure_down)
-        return flux, temperature, pressure_down
 
 
 def random_upstream(envelope, count, rng):
@@ -134,7 +93,7 @@ def compare_with_coolprop(fluid, envelope, table, count, seed):
     for temperature, density, ratio in zip(temperatures, densities, random_ratios(temperatures.size, rng)):
         if fluid.vapour_quality(temperature, density) is not None:
             continue
-        reference = Reference(fluid.name, temperature, density)
+        reference = IsentropicExpansion(fluid.name, temperature, density)
         if fluid.superheat(temperature, reference.pressure) < margin:
             continue
         try:
@@ -188,7 +147,7 @@ def test_throat_in_the_dome_is_flagged_for_near_saturated_discharge_gas(tables):
     pressure = 1.3179e6
     temperature = fluid.saturation_temperature(pressure) + 1.5
     density = fluid.density(temperature, pressure)
-    reference = Reference("R134a", temperature, density)
+    reference = IsentropicExpansion("R134a", temperature, density)
     _, throat_temperature, throat_pressure = reference.flux(0.2 * pressure)
     assert reference.two_phase(throat_pressure)                                 # the premise: a wet expansion
     flux, status = real_gas_mass_flux(temperature, density, reference.pressure, 0.2 * pressure, table)
@@ -239,7 +198,7 @@ def test_monotone_in_downstream_pressure_and_continuous_at_choking(tables, name)
         assert np.all(fluxes[ratios < 0.3] == choked)                              # choked well below pr*
         flat_end = ratios[np.flatnonzero(fluxes == choked)[-1]]
         try:
-            reference_ratio = Reference(fluid.name, temperature, density).choked()[0] / pressure
+            reference_ratio = IsentropicExpansion(fluid.name, temperature, density).choked()[0] / pressure
         except ValueError:                        # the expansion leaves CoolProp's range (below the triple point)
             continue
         assert abs(flat_end - reference_ratio) < 0.01, (flat_end, reference_ratio)
