@@ -238,7 +238,7 @@ def test_fanno_reference_against_the_ode(ideal_r134a):
 
 def test_correlation_and_fanno_reference_agree_where_pdsim_fitted_it(ideal_r134a):
     """Choked R134a leak through scroll-like radial gaps (10-20 um, 2-5 mm, turbulent): the hybrid model and the
-    Fanno channel give the same friction ratio within 15 %; outside that range they part (docs/flow_paths_draft.md)."""
+    Fanno channel give the same friction ratio within 15 %; outside that range they part (docs/model.md §7.4)."""
     gas = ideal_r134a
     for delta in (10e-6, 20e-6):
         for length in (2e-3, 3e-3, 5e-3):
