@@ -1,7 +1,8 @@
-"""Regenerate the tables of docs/model.md that come from the code: the default parameters (§9, from
-`rotary_vane.mechanics.parameters.markdown_table`) and the FMU variables (§12, from the variables the FMU slaves
-register). Each table sits between `<!-- generated: NAME -->` and `<!-- end generated: NAME -->`;
-`tests/test_docs.py` checks that the file holds what this script would write.
+"""Regenerate the tables of docs/model.md and the README that come from the code: the default parameters (§9, from
+`rotary_vane.mechanics.parameters.markdown_table`), the outputs (from the declarations of
+`rotary_vane.mechanics.outputs`) and the FMU variables (§12, from the variables the FMU slaves register). Each
+table sits between `<!-- generated: NAME -->` and `<!-- end generated: NAME -->`; `tests/test_docs.py` checks that
+the files hold what this script would write.
 
     python docs/make_tables.py
 """
@@ -11,6 +12,7 @@ import re
 from pathlib import Path
 
 MODEL = Path(__file__).resolve().parent / "model.md"
+README = Path(__file__).resolve().parent.parent / "README.md"
 
 
 def parameter_table() -> str:
@@ -39,11 +41,22 @@ def variable_table(variables) -> str:
     return "\n".join(lines)
 
 
+def output_table() -> str:
+    from rotary_vane.mechanics.outputs import markdown_table
+    return markdown_table()
+
+
 def generated_blocks() -> dict[str, str]:
-    blocks = {"parameters": parameter_table()}
+    """The generated tables of docs/model.md."""
+    blocks = {"parameters": parameter_table(), "outputs": output_table()}
     for model, variables in fmu_variables().items():
         blocks[f"variables {model}"] = variable_table(variables)
     return blocks
+
+
+def readme_blocks() -> dict[str, str]:
+    """The generated tables of the README."""
+    return {"parameters": parameter_table(), "outputs": output_table()}
 
 
 def block_pattern(name: str) -> re.Pattern:
@@ -60,8 +73,8 @@ def rewrite(text: str, blocks: dict[str, str]) -> str:
 
 
 def main() -> None:
-    text = MODEL.read_text(encoding="utf-8")
-    MODEL.write_text(rewrite(text, generated_blocks()), encoding="utf-8")
+    for path, blocks in ((MODEL, generated_blocks()), (README, readme_blocks())):
+        path.write_text(rewrite(path.read_text(encoding="utf-8"), blocks), encoding="utf-8")
 
 
 if __name__ == "__main__":

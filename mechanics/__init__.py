@@ -6,9 +6,9 @@ from rotary_vane.thermo.compile_cache import install as _install_compile_cache
 _install_compile_cache(Path(__file__).parent)       # before any kernel is defined
 
 from .errors import IntegrationError  # noqa: E402
-from .parameters import CompressorParameters, declarations
+from .parameters import REFERENCE_NUMERICS, CompressorParameters, declarations
 from .simulation import History, Simulation, SimulationState
 from .speed import SpeedLaw, constant_speed, cycloidal_ramp, linear_ramp
 
-__all__ = ["CompressorParameters", "declarations", "History", "IntegrationError", "Simulation", "SimulationState",
+__all__ = ["REFERENCE_NUMERICS", "CompressorParameters", "declarations", "History", "IntegrationError", "Simulation", "SimulationState",
            "SpeedLaw", "constant_speed", "cycloidal_ramp", "linear_ramp"]

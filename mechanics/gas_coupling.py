@@ -2,25 +2,27 @@
 
 - Level 0 / 0.5 (`polytropic`, `ideal_gas_table`): the p_L(phase) table of mechanics.pressure_source; the chamber
   model gets placeholders it never reads.
-- Level 1 (`real_gas`): the fluid's (T, ln rho) property table and its real-gas nozzle table for the operating
-  envelope (thermo.property_table, thermo.real_gas_nozzle, both cached on disk), the chamber model's constants
+- Level 1 (`real_gas`): the operating point (thermo.operating_point: suction state, envelope, h_2s, references of
+  the per-revolution figures), the fluid's (T, ln rho) property table and its real-gas nozzle table for the point's
+  envelope (thermo.property_table, thermo.real_gas_nozzle), and the chamber model's constants
   (thermo.chamber_model): the suction state consistent with the property table, the discharge plenum and back
   chamber at p_d on the suction isentrope, the valley seal's friction-equivalent length and each leakage path's law
-  and coefficient (docs/model.md §7.4); and the references of the per-revolution figures (thermo.gas_reference).
-  CoolProp itself is imported on first use (thermo.fluid.coolprop), i.e. for real gas only.
+  and coefficient (docs/model.md §7.4). The point and both tables are cached on disk; CoolProp is imported only to
+  compute what is not cached (docs/model.md §7.1).
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
 from rotary_vane.thermo.chamber_model import chamber_constants
-from rotary_vane.thermo.fluid import Fluid
 from rotary_vane.thermo.gas_reference import GasReference
 from rotary_vane.thermo.leakage import leakage_law_code
-from rotary_vane.thermo.property_table import (PropertyTable, envelope_for, property_table_for, table_arrays,
-                                              table_properties)
+from rotary_vane.thermo.operating_point import operating_point_for
+from rotary_vane.thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
+    table_state
 from rotary_vane.thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
                                                nozzle_table_arrays, nozzle_table_for, real_gas_mass_flux)
 
@@ -84,34 +86,52 @@ def _constants(p: CompressorParameters, suction: BoundaryState, discharge: Bound
         atol_temperature=1e-4 * scale, atol_mass=1e-12 * scale, atol_energy=1e-6 * scale)
 
 
-def _check_nozzle_inlet(name: str, value, state: BoundaryState, table: NozzleTable, fluid: Fluid, where: str):
+def _check_nozzle_inlet(name: str, value, state: BoundaryState, table: NozzleTable, where: str):
     """Refuse, before any work, a boundary state that is upstream of a flow path but that the nozzle table refuses
     (status 1-7; 8, a metastable throat, is accepted as in the loop, docs/model.md §7.4)."""
     status = real_gas_mass_flux(state.temperature, state.density, state.pressure, 0.5 * state.pressure, table)[1]
     if status not in (0, STATUS_THROAT_NEAR_SATURATION):
         raise ValueError(f"parameter '{name}' = {value!r} is not valid here: "
-                         + describe_nozzle_status(status, state.temperature, state.density, table, fluid, where))
+                         + describe_nozzle_status(status, state.temperature, state.density, table, state=where))
+
+
+def _density_at_pressure(temperature, pressure, guess, table: PropertyTable) -> float:
+    """rho with p(T, rho) = p on the property table (Newton on (dp/drho)_T from `guess`); NaN if the table refuses
+    a state on the way or Newton does not converge."""
+    density = guess
+    for _ in range(50):
+        state = table_state(temperature, density, table)
+        step = (state.pressure - pressure) / state.pressure_density_derivative
+        density -= step
+        if not math.isfinite(density) or abs(step) < 1e-13 * density:
+            return density
+    return math.nan
+
+
+def _back_chamber(point, table: PropertyTable) -> BoundaryState:
+    """The discharge plenum and back chamber (docs/model.md §7.4): p_d on the suction isentrope, T_2s = T(p_d, h_2s)
+    from the operating point, rho on the property table, h its h (so a warm start asks no CoolProp)."""
+    temperature = point.discharge_temperature(point.isentropic_discharge_enthalpy)
+    density = _density_at_pressure(temperature, point.discharge_pressure,
+                                   point.discharge_pressure / (point.gas_constant * temperature), table)
+    return BoundaryState(temperature, density, point.discharge_pressure, table_properties(temperature, density,
+                                                                                           table)[1])
 
 
 def _real_gas_coupling(p: CompressorParameters) -> GasCoupling:
-    fluid = Fluid(p.fluid)
-    envelope = envelope_for(fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
-    table = property_table_for(fluid, envelope)
-    nozzles = nozzle_table_for(fluid, envelope)
-    density = fluid.density(p.suction_temperature, p.suction_pressure)
-    suction = BoundaryState(p.suction_temperature, density, p.suction_pressure,
-                            table_properties(p.suction_temperature, density, table)[1])
-    compressed = fluid.state_at_pressure_entropy(p.discharge_pressure,
-                                                 fluid.properties(p.suction_temperature, density).entropy)
-    discharge = BoundaryState(compressed.temperature, compressed.density, p.discharge_pressure, compressed.enthalpy)
-    _check_nozzle_inlet("fluid", p.fluid, suction, nozzles, fluid, "suction state")
+    point = operating_point_for(p.fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
+    table = property_table_for(point, point.envelope)
+    nozzles = nozzle_table_for(point, point.envelope)
+    suction = BoundaryState(p.suction_temperature, point.suction_density, p.suction_pressure,
+                            table_properties(p.suction_temperature, point.suction_density, table)[1])
+    discharge = _back_chamber(point, table)
+    _check_nozzle_inlet("fluid", p.fluid, suction, nozzles, "suction state")
     if p.slot_leak_law != "sealed":
-        _check_nozzle_inlet("slot_leak_law", p.slot_leak_law, discharge, nozzles, fluid,
+        _check_nozzle_inlet("slot_leak_law", p.slot_leak_law, discharge, nozzles,
                             "back chamber (p_d on the suction isentrope)")
-    reference = GasReference(fluid, p.suction_temperature, density, p.discharge_pressure,
-                             p.lobes * p.axial_length * lobe_area(p))
+    reference = GasReference(point, p.lobes * p.axial_length * lobe_area(p))
     return GasCoupling(np.zeros(2), table_arrays(table), nozzle_table_arrays(nozzles),
-                       _constants(p, suction, discharge, valley_seal_length(p)), density, reference)
+                       _constants(p, suction, discharge, valley_seal_length(p)), point.suction_density, reference)
 
 
 def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCoupling:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
+from rotary_vane.thermo.fluid import Fluid
 from rotary_vane.thermo.property_table import describe_status, table_from_arrays, table_status
 from rotary_vane.thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
 
@@ -242,6 +243,7 @@ class Simulation:
         if status == GAS_STATE_INVALID and self.gas_reference is not None:
             table = table_from_arrays(*self.gas.properties)
             nozzles = nozzle_table_from_arrays(*self.gas.nozzles)
+            fluid = Fluid(self.gas_reference.point.coolprop_name)         # for the exact state near the dome
             volumes = (self.last_output[OUTPUT_INDEX["leading_volume"]],
                        self.last_output[OUTPUT_INDEX["trailing_volume"]])
             for k, (name, temperature, mass) in enumerate((("leading", LEADING_TEMPERATURE, LEADING_MASS),
@@ -253,10 +255,10 @@ class Simulation:
                 nozzle_code = table_viscosity(temperature_value, density, nozzles)[1]   # the nozzle inlet's status
                 if code != 0:
                     text += "; " + describe_status(code, temperature_value, density, table,
-                                                   fluid=self.gas_reference.fluid, state=where)
+                                                   fluid=fluid, state=where)
                 elif nozzle_code != 0:
                     text += "; " + describe_nozzle_status(nozzle_code, temperature_value, density, nozzles,
-                                                          fluid=self.gas_reference.fluid, state=where)
+                                                          fluid=fluid, state=where)
         return text
 
     def evaluate(self, t: float, state: np.ndarray, memory: np.ndarray | None = None):

@@ -36,7 +36,8 @@ CAMPAIGN_SCRIPT = H.PROJECT_DIR / "examples" / "campaign.py"
 SPEEDS = (1000.0, 2000.0, 3000.0)                 # rpm: 0.83, 1.67 and 2.5 revolutions in STOP_TIME
 CLEARANCES = (0.0, 5e-5)                          # m, slot = stator clearance
 STOP_TIME = 0.05                                  # s
-SLOW = {"max_step": 5e-7, "initial_step": 1e-7}   # s: about 0.2 s of work per point (an idle core)
+SLOW = {"max_step": 5e-7, "initial_step": 1e-7,   # s: about 0.2 s of work per point (an idle core)
+        "pressure_model": "ideal_gas_table"}
 BAD_POINT = {"shaft_speed": 1500.0, "discharge_pressure": 2e5}   # Pa, below suction_pressure = 2.928e5 Pa
 GOOD_POINTS = [{"shaft_speed": n, "slot_clearance": c, "stator_clearance": c} for c in CLEARANCES for n in SPEEDS]
 TIMEOUT = 300.0                                   # s per campaign process

@@ -90,6 +90,9 @@ def test_generated_tables_match_the_code(make_tables):
     text = MODEL.read_text(encoding="utf-8")
     assert make_tables.rewrite(text, make_tables.generated_blocks()) == text, \
         "docs/model.md is out of date: run python docs/make_tables.py"
+    readme = make_tables.README.read_text(encoding="utf-8")
+    assert make_tables.rewrite(readme, make_tables.readme_blocks()) == readme, \
+        "README.md is out of date: run python docs/make_tables.py"
 
 
 def test_every_fmu_variable_is_described_in_section_12(make_tables):

@@ -354,12 +354,13 @@ def test_level_half_honours_a_sealed_valley_and_refuses_the_friction_law():
     """Level 0.5 has the end-valley seal only: "sealed" gives the table of a leak coefficient 0, the coefficient is
     the end valley's, and the friction-corrected law, which needs the fluid's viscosity, is refused before any
     work."""
-    sealed = Simulation(CompressorParameters(stator_clearance=0.1e-3, end_valley_leak_law="sealed"))
-    closed = Simulation(CompressorParameters(stator_clearance=0.1e-3, end_valley_leak_coefficient=0.0))
-    leaking = Simulation(CompressorParameters(stator_clearance=0.1e-3))
+    level_half = dict(pressure_model="ideal_gas_table", stator_clearance=0.1e-3)
+    sealed = Simulation(CompressorParameters(**level_half, end_valley_leak_law="sealed"))
+    closed = Simulation(CompressorParameters(**level_half, end_valley_leak_coefficient=0.0))
+    leaking = Simulation(CompressorParameters(**level_half))
     assert np.array_equal(sealed.gas.pressure_table, closed.gas.pressure_table)
     assert np.max(np.abs(leaking.gas.pressure_table - closed.gas.pressure_table)) > 1e4
     with pytest.raises(ValueError, match="end_valley_leak_law.*friction_corrected.*real_gas"):
-        CompressorParameters(end_valley_leak_law="friction_corrected")
+        CompressorParameters(pressure_model="ideal_gas_table", end_valley_leak_law="friction_corrected")
     with pytest.raises(ValueError, match="slot_leak_law.*oil.*nozzle, friction_corrected, sealed"):
         CompressorParameters(slot_leak_law="oil")

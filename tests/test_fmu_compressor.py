@@ -218,7 +218,7 @@ private = next(p.name for p in resources.iterdir() if p.is_dir() and p.name.star
 mechanics = importlib.import_module(private + ".mechanics")
 layout = importlib.import_module(private + ".mechanics.layout")
 outputs = importlib.import_module(private + ".mechanics.outputs")
-params = mechanics.CompressorParameters(slot_clearance=5e-5, stator_clearance=5e-5)
+params = mechanics.CompressorParameters(slot_clearance=5e-5, stator_clearance=5e-5, pressure_model="ideal_gas_table")
 sim = mechanics.Simulation(params, mechanics.constant_speed(1500.0), initial_angle=0.0, keep_history=False,
                            table_speed_rpm=1500.0)
 core_rows = []

@@ -464,7 +464,10 @@ slave = CosimLocalSlave(fmu_path=$fmu, instance_name="compressor")
 index = execution.add_local_slave(local_slave=slave)
 refs = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
 for name, value in H.OPERATING_POINT.items():
-    execution.real_initial_value(index, refs[name], value)
+    if isinstance(value, str):
+        execution.string_initial_value(index, refs[name], value)
+    else:
+        execution.real_initial_value(index, refs[name], value)
 observer = CosimObserver.create_last_value()
 execution.add_observer(observer)
 ok = execution.simulate_until(start + 300 * 10 ** 6)

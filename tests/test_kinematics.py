@@ -189,11 +189,11 @@ def test_evaluate_reports_nominal_kinematics(check, reference, kernel, shape):
 # ----------------------------------------------------------------------------------------------------------
 # T4: augmented 15x15 system vs the reduced form, with independently recomputed generalized forces
 
-PARAMETER_CASES = {
-    "clearance_0.05mm": dict(slot_clearance=0.05e-3, stator_clearance=0.05e-3),
-    "no_clearance": dict(),
+PARAMETER_CASES = {    # with the Level 0.5 pressure table, whose pressures the independent reference reads
+    "clearance_0.05mm": dict(slot_clearance=0.05e-3, stator_clearance=0.05e-3, pressure_model="ideal_gas_table"),
+    "no_clearance": dict(pressure_model="ideal_gas_table"),
     "z5_ambrosio": dict(lobes=5, slot_clearance=0.1e-3, stator_clearance=0.1e-3, friction_model="ambrosio",
-                        friction_velocity=1e-4, friction_velocity_full=1e-3),
+                        friction_velocity=1e-4, friction_velocity_full=1e-3, pressure_model="ideal_gas_table"),
 }
 
 

@@ -15,12 +15,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rotary_vane.thermo.disk_cache import property_cache_dir
 from rotary_vane.thermo.fluid import Fluid, typical_operating_point
 from rotary_vane.thermo.property_table import (STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
                                    STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK,
                                    STATUS_TEMPERATURE_ABOVE_TABLE, STATUS_TEMPERATURE_BELOW_TABLE, Envelope,
                                    build_property_table, describe_status, dome_log_density_limit, envelope_for,
-                                   property_cache_dir, property_table_for, property_table_path,
+                                   property_table_for, property_table_path,
                                    table_ideal_gas_exponent, table_properties, table_status)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]

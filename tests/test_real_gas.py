@@ -12,7 +12,11 @@ import pytest
 from scipy.optimize import brentq
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+from rotary_vane.mechanics.errors import IntegrationError
+from rotary_vane.mechanics.layout import GAS_BLOCK
+from rotary_vane.mechanics.outputs import OUTPUT_INDEX
 from rotary_vane.mechanics.performance import revolutions
+from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, chamber_derivatives, signed_nozzle_flow
 
 OPERATING = dict(pressure_model="real_gas", slot_clearance=5e-5, stator_clearance=5e-5)
@@ -56,6 +60,35 @@ def test_gas_power_matches_the_chambers_pv_work(nominal):
     the load-free gaps and the back chamber, which is small: within 2 %."""
     rev = revolutions(nominal)[-1]
     assert abs(rev.indicated_power / rev.output_power - 1.0) < 0.02
+
+
+def test_per_revolution_figures_against_coolprop(nominal):
+    """docs/model.md §6.4 with CoolProp's own flashes: the discharge temperature is T(p_d, h_d) of the HmassP flash to
+    1e-6 K (its convergence error is up to 4e-7 K), and eta_is = m_dot_d (h(p_d, s_1) - h_1) / <P_in> to 1e-9."""
+    p = nominal.params
+    state = CoolProp.AbstractState("HEOS", p.fluid)
+    state.update(CoolProp.PT_INPUTS, p.suction_pressure, p.suction_temperature)
+    suction_enthalpy, suction_entropy = state.hmass(), state.smass()
+    state.update(CoolProp.PSmass_INPUTS, p.discharge_pressure, suction_entropy)
+    isentropic_enthalpy = state.hmass()
+    for rev in revolutions(nominal):
+        state.update(CoolProp.HmassP_INPUTS, rev.discharge_enthalpy, p.discharge_pressure)
+        assert abs(rev.discharge_temperature - state.T()) < 1e-6
+        assert rev.discharge_temperature > p.suction_temperature + 40.0
+        expected = rev.discharge_mass_flow * (isentropic_enthalpy - suction_enthalpy) / rev.input_power
+        assert rev.isentropic_efficiency == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_refused_chamber_state_stops_the_run_with_its_exact_vapour_quality():
+    """A chamber pushed into the dome stops the run; the message names the chamber and its vapour quality, which
+    comes from CoolProp (made only then: the run itself needs no CoolProp once its data are cached)."""
+    sim = run(revs=0.025)
+    sim.state[GAS_BLOCK + LEADING_TEMPERATURE] = 260.0           # R134a at 260 K and the chamber's density: wet
+    density = sim.state[GAS_BLOCK + LEADING_MASS] / sim.last_output[OUTPUT_INDEX["leading_volume"]]
+    quality = CoolProp.CoolProp.PropsSI("Q", "T", 260.0, "D", density, "R134a")
+    with pytest.raises(IntegrationError, match="leading chamber") as stopped:
+        sim.advance(sim.time + 1e-3)
+    assert f"vapour quality {quality:.4g} from HEOS" in str(stopped.value)
 
 
 def test_closed_chamber_follows_the_isentrope():

@@ -108,7 +108,7 @@ def test_bad_advance_arguments_are_refused_before_any_work(bad):
 
 def test_ideal_gas_table_needs_an_operating_speed():
     with pytest.raises(ValueError, match="operating speed"):
-        Simulation(CompressorParameters(), constant_speed(0.0))
+        Simulation(CompressorParameters(pressure_model="ideal_gas_table"), constant_speed(0.0))
 
 
 @pytest.mark.parametrize("changes", [

@@ -17,6 +17,7 @@ from .pressure_tables import ideal_gas_pressure_table, polytropic_pressure_table
 from .fluid import Fluid, check_operating_point  # noqa: E402
 from .property_table import (Envelope, PropertyTable, describe_status, envelope_for,  # noqa: E402
                              property_table_for, table_ideal_gas_exponent, table_properties, table_status)
+from .operating_point import OperatingPoint, operating_point_for  # noqa: E402
 
 __all__ = [
     "isentropic_nozzle_mass_flow",
@@ -32,4 +33,6 @@ __all__ = [
     "table_ideal_gas_exponent",
     "table_properties",
     "table_status",
+    "OperatingPoint",
+    "operating_point_for",
 ]

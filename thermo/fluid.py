@@ -8,23 +8,39 @@ J/(kg K). Nothing here is called in the time loop; the fast path is the numba ta
 
 `check_operating_point` validates a compressor operating point before any work starts (docs/model.md §7.1): the suction
 state must be a gas at least `SUPERHEAT_MARGIN` = 1 K outside the two-phase dome (docs/model.md §7.3: T > T_sat(p) + 1 K),
-and the discharge pressure must exceed the suction pressure.
+and the discharge pressure must exceed the suction pressure. `check_operating_numbers` is its part that needs no
+fluid, and `coolprop_version` names the installed CoolProp without importing it: what a cache lookup needs
+(thermo.operating_point).
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
 UNIVERSAL_GAS_CONSTANT = 8314.462        # J/(kmol K), docs/model.md §7.4: R = 8314.462/M with M in kg/kmol
 SUPERHEAT_MARGIN = 1.0                   # K, smallest accepted distance from the dew line (docs/model.md §7.3)
 LIST_FLUIDS_HINT = "list valid names with CoolProp.CoolProp.get_global_param_string('FluidsList')"
+COOLPROP_DISTRIBUTION = "CoolProp"       # the name CoolProp's wheel is installed under (its METADATA's Name)
 
 
 def coolprop():
-    """CoolProp's low-level module `CoolProp.CoolProp`, imported on first use: the import costs about 1.5 s of CPU,
+    """CoolProp's low-level module `CoolProp.CoolProp`, imported on first use: the import costs about 2.3 s of CPU,
     which `import thermo` must not pay when no real gas is used."""
     import CoolProp.CoolProp as CP
     return CP
+
+
+@functools.lru_cache(maxsize=None)
+def coolprop_version() -> str:
+    """The version of the installed CoolProp distribution, read from its metadata (a few ms) without importing
+    CoolProp (2.3 s): part of every cache key of CoolProp-derived data (docs/model.md §7.1)."""
+    from importlib.metadata import version
+    return version(COOLPROP_DISTRIBUTION)
+
+
+class UnknownFluidError(ValueError):
+    """A fluid name that is not a pure or pseudo-pure CoolProp fluid (the message says how to list the valid ones)."""
 
 
 class ExactProperties(NamedTuple):
@@ -59,6 +75,11 @@ def _positive(name, value, unit):
     return number
 
 
+def _unknown_fluid(name) -> UnknownFluidError:
+    return UnknownFluidError(f"fluid={name!r} is out of range; allowed: the name of a pure or pseudo-pure CoolProp "
+                             f"fluid; {LIST_FLUIDS_HINT}")
+
+
 def _two_phase_quality(state):
     """The vapour quality of an updated AbstractState inside the dome, None outside it."""
     CP = coolprop()
@@ -74,11 +95,11 @@ class Fluid:
     def __init__(self, name: str = "R134a"):
         CP = coolprop()
         if not isinstance(name, str) or not name or "&" in name:
-            _fail("fluid", name, f"the name of a pure or pseudo-pure CoolProp fluid; {LIST_FLUIDS_HINT}")
+            raise _unknown_fluid(name)
         try:
             state = CP.AbstractState("HEOS", name)
         except ValueError:
-            _fail("fluid", name, f"the name of a pure or pseudo-pure CoolProp fluid; {LIST_FLUIDS_HINT}")
+            raise _unknown_fluid(name) from None
         self.name = name
         self.coolprop_name = state.fluid_param_string("name")       # canonical, e.g. "CarbonDioxide" for "CO2"
         self._state = state
@@ -217,10 +238,15 @@ class Fluid:
         heat_capacity = self._gas.cp0mass()
         return heat_capacity / (heat_capacity - self.gas_constant)
 
+    def dome_temperature(self, pressure):
+        """The temperature superheat is counted from [K]: T_dew(p) for p < p_crit, T_crit for p >= p_crit
+        (docs/model.md §7.3)."""
+        dew = self.saturation_temperature(pressure)
+        return self.critical_temperature if dew is None else dew
+
     def superheat(self, temperature, pressure):
         """Distance from the dome [K]: T - T_dew(p) for p < p_crit, T - T_crit for p >= p_crit."""
-        dew = self.saturation_temperature(pressure)
-        return float(temperature) - (self.critical_temperature if dew is None else dew)
+        return float(temperature) - self.dome_temperature(pressure)
 
 
 def typical_operating_point(fluid: Fluid) -> tuple[float, float, float]:
@@ -236,6 +262,19 @@ def typical_operating_point(fluid: Fluid) -> tuple[float, float, float]:
     return fluid.dew_pressure(273.15), 283.15, fluid.dew_pressure(323.15)
 
 
+def check_operating_numbers(suction_pressure, suction_temperature, discharge_pressure,
+                            superheat_margin=SUPERHEAT_MARGIN) -> tuple[float, float, float, float]:
+    """The checks of `check_operating_point` that need no fluid (docs/model.md §7.1): p_s, T_s, p_d and the margin
+    finite numbers > 0 and p_d > p_s; returns them as floats, else ValueError naming the variable."""
+    suction_pressure = _positive("suction_pressure", suction_pressure, "Pa")
+    suction_temperature = _positive("suction_temperature", suction_temperature, "K")
+    discharge_pressure = _positive("discharge_pressure", discharge_pressure, "Pa")
+    superheat_margin = _positive("superheat_margin", superheat_margin, "K")
+    if not discharge_pressure > suction_pressure:
+        _fail("discharge_pressure", discharge_pressure, f"> suction_pressure = {suction_pressure!r} Pa")
+    return suction_pressure, suction_temperature, discharge_pressure, superheat_margin
+
+
 def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, discharge_pressure,
                           superheat_margin=SUPERHEAT_MARGIN):
     """Validate a compressor operating point (docs/model.md §7.1) before any work starts; ValueError otherwise.
@@ -245,12 +284,8 @@ def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, d
     T_s >= T_crit + margin for p_s >= p_crit (a supercritical gas; colder is a compressed liquid).
     Returns the suction superheat [K] in that sense.
     """
-    suction_pressure = _positive("suction_pressure", suction_pressure, "Pa")
-    suction_temperature = _positive("suction_temperature", suction_temperature, "K")
-    discharge_pressure = _positive("discharge_pressure", discharge_pressure, "Pa")
-    superheat_margin = _positive("superheat_margin", superheat_margin, "K")
-    if not discharge_pressure > suction_pressure:
-        _fail("discharge_pressure", discharge_pressure, f"> suction_pressure = {suction_pressure!r} Pa")
+    suction_pressure, suction_temperature, discharge_pressure, superheat_margin = check_operating_numbers(
+        suction_pressure, suction_temperature, discharge_pressure, superheat_margin)
     if not discharge_pressure <= fluid.maximum_pressure:
         _fail("discharge_pressure", discharge_pressure,
               f"<= {fluid.maximum_pressure!r} Pa (validity range of the {fluid.name} equation of state)")

@@ -46,23 +46,19 @@ Status codes (the four values are NaN whenever status != 0; `describe_status` tu
     STATUS_INACCURATE_CELL = 7          in a cell that failed the build check (near the critical point)
 The checks run in this order; the first failing one is reported.
 
-Tables are cached on disk per fluid, envelope, grid and CoolProp version (`property_table_for`).
+Tables are cached on disk per fluid, envelope, grid and CoolProp version (`property_table_for`, thermo.disk_cache).
 """
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import tempfile
-import warnings
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from .disk_cache import cache_path, load_or_build
+from .fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point, coolprop, coolprop_version
 from .kernel import kernel
-from .compile_cache import CACHE_ENVIRONMENT_VARIABLE
-from .fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point, coolprop
 
 FORMAT_VERSION = 2
 DEFAULT_TEMPERATURE_NODES = 160
@@ -277,8 +273,8 @@ def _check_count(name, value):
     return int(value)
 
 
-def _check_envelope(fluid: Fluid, envelope) -> Envelope:
-    """Envelope with finite floats, min < max, inside the equation of state's temperature range, margin > 0."""
+def _checked_envelope(envelope) -> Envelope:
+    """Envelope with finite floats > 0 and density_min < density_max: the checks that need no fluid."""
     if not isinstance(envelope, Envelope):
         raise ValueError(f"envelope={envelope!r} is out of range; allowed: a thermo.Envelope")
     values = [float(v) for v in envelope]
@@ -286,14 +282,20 @@ def _check_envelope(fluid: Fluid, envelope) -> Envelope:
         if not (math.isfinite(value) and value > 0.0):
             raise ValueError(f"envelope.{name}={value!r} is out of range; allowed: a finite number > 0")
     checked = Envelope(*values)
+    if not checked.density_min < checked.density_max:
+        raise ValueError(f"envelope.density_max={checked.density_max!r} is out of range; allowed: > "
+                         f"envelope.density_min = {checked.density_min!r} kg/m^3")
+    return checked
+
+
+def _check_envelope(fluid: Fluid, envelope) -> Envelope:
+    """`_checked_envelope`, and temperature_min < temperature_max inside the equation of state's range."""
+    checked = _checked_envelope(envelope)
     if not fluid.minimum_temperature <= checked.temperature_min < checked.temperature_max <= fluid.maximum_temperature:
         raise ValueError(
             f"envelope temperature range [{checked.temperature_min!r}, {checked.temperature_max!r}] K is out of range; "
             f"allowed: min < max inside [{fluid.minimum_temperature!r}, {fluid.maximum_temperature!r}] K "
             f"(validity range of the {fluid.name} equation of state)")
-    if not checked.density_min < checked.density_max:
-        raise ValueError(f"envelope.density_max={checked.density_max!r} is out of range; allowed: > "
-                         f"envelope.density_min = {checked.density_min!r} kg/m^3")
     return checked
 
 
@@ -439,44 +441,30 @@ def envelope_for(fluid: Fluid, suction_pressure, suction_temperature, discharge_
     temperature_min = max(fluid.minimum_temperature, expanded - ENVELOPE_COLD_MARGIN,
                           -math.inf if low_dew is None else low_dew)
     temperature_max = min(fluid.maximum_temperature, compressed + ENVELOPE_HOT_MARGIN)
-    high_dew = fluid.saturation_temperature(high_pressure)
     coldest_at_high_pressure = max(temperature_min, compressed - ENVELOPE_COLD_MARGIN,
-                                   (fluid.critical_temperature if high_dew is None else high_dew) + superheat_margin)
+                                   fluid.dome_temperature(high_pressure) + superheat_margin)
     return Envelope(temperature_min, temperature_max, fluid.density(temperature_max, low_pressure),
                     fluid.density(coldest_at_high_pressure, high_pressure), float(superheat_margin))
 
 
 # ----------------------------------------------------------------------------------------------------------
-# disk cache
+# disk cache (thermo.disk_cache)
 
-def property_cache_dir() -> Path:
-    """$ROTARY_VANE_CACHE_DIR/properties if set, else $XDG_CACHE_HOME (default ~/.cache)/rotary-vane-compressor/
-    properties."""
-    if os.environ.get(CACHE_ENVIRONMENT_VARIABLE):
-        return Path(os.environ[CACHE_ENVIRONMENT_VARIABLE]) / "properties"
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "rotary-vane-compressor" / "properties"
-
-
-def _cache_key(fluid: Fluid, envelope: Envelope, temperature_nodes, log_density_nodes) -> str:
-    """Everything the table's content depends on, as text (floats by repr: exact)."""
-    CP = coolprop()
-    return "|".join([f"format {FORMAT_VERSION}", f"fluid {fluid.coolprop_name}",
+def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_density_nodes) -> str:
+    """Everything the table's content depends on, as text (floats by repr: exact); no CoolProp import."""
+    return "|".join([f"format {FORMAT_VERSION}", f"fluid {coolprop_name}",
                      "envelope " + " ".join(repr(float(v)) for v in envelope),
-                     f"nodes {temperature_nodes}x{log_density_nodes}",
-                     f"coolprop {CP.get_global_param_string('version')} {CP.get_global_param_string('gitrevision')}",
+                     f"nodes {temperature_nodes}x{log_density_nodes}", f"coolprop {coolprop_version()}",
                      f"dome refinement {DOME_REFINEMENT}", f"cross step {CROSS_DERIVATIVE_STEP!r}",
                      f"cell tolerance {CELL_TOLERANCE!r}"])
 
 
-def property_table_path(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
+def property_table_path(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
                         log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None) -> Path:
-    """The cache file of this fluid, envelope and grid: <cache dir>/<fluid>-<hash of the key>.npz."""
-    envelope = _check_envelope(fluid, envelope)
-    key = _cache_key(fluid, envelope, temperature_nodes, log_density_nodes)
-    folder = property_cache_dir() if cache_dir is None else Path(cache_dir)
-    safe_name = "".join(c if c.isalnum() or c in "-_" else "_" for c in fluid.coolprop_name)
-    return folder / f"{safe_name}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.npz"
+    """The cache file of this fluid, envelope and grid: <cache dir>/<fluid>-<hash of the key>.npz. `fluid`: a
+    Fluid, or anything naming one by its canonical `coolprop_name` (a thermo.operating_point.OperatingPoint)."""
+    key = _cache_key(fluid.coolprop_name, _checked_envelope(envelope), temperature_nodes, log_density_nodes)
+    return cache_path(fluid.coolprop_name, key, ".npz", cache_dir)
 
 
 def _load(path: Path, key: str, temperature_nodes, log_density_nodes) -> PropertyTable:
@@ -494,45 +482,25 @@ def _load(path: Path, key: str, temperature_nodes, log_density_nodes) -> Propert
     return table
 
 
-def _save(path: Path, key: str, table: PropertyTable) -> None:
-    """Write atomically: a temporary file in the same folder, renamed over `path` (concurrent writers each rename
-    a complete file; readers never see a partial one)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem + ".", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, key=np.array(key), **table._asdict())
-        os.replace(temporary, path)
-    except BaseException:
-        os.unlink(temporary)
-        raise
-
-
-def property_table_for(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
-                   log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None) -> PropertyTable:
+def property_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
+                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None) -> PropertyTable:
     """The table of `fluid` over `envelope`, loaded from the disk cache or built from HEOS and cached.
 
-    Cache folder: `cache_dir`, else `property_cache_dir()`. The file name hashes the fluid, envelope, grid, CoolProp
-    version and FORMAT_VERSION; an unreadable or mismatching file is rebuilt (with a warning), never trusted.
+    `fluid`: a Fluid, or anything naming one by its canonical `coolprop_name` (an OperatingPoint): the Fluid, and
+    with it CoolProp, is then made only if the table must be built. Cache folder: `cache_dir`, else
+    `thermo.disk_cache.property_cache_dir()`. The file name hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION; an
+    unreadable or mismatching file is rebuilt (with a warning), never trusted (thermo.disk_cache).
     """
-    envelope = _check_envelope(fluid, envelope)
+    envelope = _checked_envelope(envelope)
     temperature_nodes = _check_count("temperature_nodes", temperature_nodes)
     log_density_nodes = _check_count("log_density_nodes", log_density_nodes)
     path = property_table_path(fluid, envelope, temperature_nodes, log_density_nodes, cache_dir)
-    key = _cache_key(fluid, envelope, temperature_nodes, log_density_nodes)
-    if path.exists():
-        try:
-            return _load(path, key, temperature_nodes, log_density_nodes)
-        except Exception as error:              # any damage: the cache is disposable, rebuild it
-            warnings.warn(f"property table cache {path} is unreadable ({type(error).__name__}: {error}); "
-                          "rebuilding it", RuntimeWarning, stacklevel=2)
-    table = build_property_table(fluid, envelope, temperature_nodes, log_density_nodes)
-    try:
-        _save(path, key, table)
-    except OSError as error:                    # e.g. a read-only home: run without the cache
-        warnings.warn(f"cannot write the property table cache {path} ({error}); continuing without it",
-                      RuntimeWarning, stacklevel=2)
-    return table
+    key = _cache_key(fluid.coolprop_name, envelope, temperature_nodes, log_density_nodes)
+    return load_or_build(
+        path, lambda stored: _load(stored, key, temperature_nodes, log_density_nodes),
+        lambda: build_property_table(fluid if isinstance(fluid, Fluid) else Fluid(fluid.coolprop_name), envelope,
+                                     temperature_nodes, log_density_nodes),
+        lambda stream, table: np.savez(stream, key=np.array(key), **table._asdict()), "property table")
 
 
 # ----------------------------------------------------------------------------------------------------------

@@ -52,9 +52,7 @@ relative error against CoolProp's equilibrium expansion where upstream and throa
 """
 from __future__ import annotations
 
-import hashlib
 import math
-import warnings
 from pathlib import Path
 from typing import NamedTuple
 
@@ -62,12 +60,13 @@ import numpy as np
 
 from .control_volume import LINEAR_FLOW_BAND
 from .kernel import kernel
-from .fluid import Fluid, coolprop
-from .property_table import (DEFAULT_TEMPERATURE_NODES as PROPERTY_TEMPERATURE_NODES, DOME_REFINEMENT, STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE,
-                             STATUS_INACCURATE_CELL, STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK,
-                             STATUS_TEMPERATURE_ABOVE_TABLE, STATUS_TEMPERATURE_BELOW_TABLE, Envelope,
-                             _check_count, _check_envelope, _save, _saturation_detail, dome_log_density_limit,
-                             property_cache_dir)
+from .fluid import Fluid, coolprop, coolprop_version
+from .disk_cache import cache_path, load_or_build
+from .property_table import (DEFAULT_TEMPERATURE_NODES as PROPERTY_TEMPERATURE_NODES, DOME_REFINEMENT,
+                             STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
+                             STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK, STATUS_TEMPERATURE_ABOVE_TABLE,
+                             STATUS_TEMPERATURE_BELOW_TABLE, Envelope, _check_count, _check_envelope,
+                             _checked_envelope, _saturation_detail, dome_log_density_limit)
 
 FORMAT_VERSION = 1
 DEFAULT_TEMPERATURE_NODES = 64
@@ -526,27 +525,28 @@ def nozzle_table_envelope(table: NozzleTable) -> Envelope:
 # ----------------------------------------------------------------------------------------------------------
 # disk cache
 
-def _cache_key(fluid: Fluid, envelope: Envelope, temperature_nodes, log_density_nodes, ratio_nodes) -> str:
-    """Everything the table's content depends on, as text (floats by repr: exact)."""
-    CP = coolprop()
-    return "|".join([f"nozzle format {FORMAT_VERSION}", f"fluid {fluid.coolprop_name}",
+def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_density_nodes, ratio_nodes) -> str:
+    """Everything the table's content depends on, as text (floats by repr: exact); no CoolProp import."""
+    return "|".join([f"nozzle format {FORMAT_VERSION}", f"fluid {coolprop_name}",
                      "envelope " + " ".join(repr(float(v)) for v in envelope),
-                     f"nodes {temperature_nodes}x{log_density_nodes}x{ratio_nodes}",
-                     f"coolprop {CP.get_global_param_string('version')} {CP.get_global_param_string('gitrevision')}",
+                     f"nodes {temperature_nodes}x{log_density_nodes}x{ratio_nodes}", f"coolprop {coolprop_version()}",
                      f"dome cells {DOME_CELLS}", f"cell tolerance {CELL_TOLERANCE!r}",
                      f"isentrope tolerance {ISENTROPE_TOLERANCE!r}", f"last sigma {LAST_SIGMA_OFFSET!r}"])
 
 
-def nozzle_table_path(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
+def _counts(temperature_nodes, log_density_nodes, ratio_nodes):
+    return (_check_count("temperature_nodes", temperature_nodes), _check_count("log_density_nodes", log_density_nodes),
+            _check_ratio_nodes(ratio_nodes))
+
+
+def nozzle_table_path(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
                       cache_dir=None) -> Path:
-    """The cache file: <cache dir>/nozzle-<fluid>-<hash of the key>.npz (cache dir: `cache_dir`, else
-    `property_table.property_cache_dir()`)."""
-    envelope = _check_envelope(fluid, envelope)
-    key = _cache_key(fluid, envelope, temperature_nodes, log_density_nodes, ratio_nodes)
-    folder = property_cache_dir() if cache_dir is None else Path(cache_dir)
-    safe_name = "".join(c if c.isalnum() or c in "-_" else "_" for c in fluid.coolprop_name)
-    return folder / f"nozzle-{safe_name}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.npz"
+    """The cache file: <cache dir>/nozzle-<fluid>-<hash of the key>.npz (thermo.disk_cache). `fluid`: a Fluid, or
+    anything naming one by its canonical `coolprop_name` (a thermo.operating_point.OperatingPoint)."""
+    key = _cache_key(fluid.coolprop_name, _checked_envelope(envelope),
+                     *_counts(temperature_nodes, log_density_nodes, ratio_nodes))
+    return cache_path(f"nozzle-{fluid.coolprop_name}", key, ".npz", cache_dir)
 
 
 def _load(path: Path, key: str, temperature_nodes, log_density_nodes, ratio_nodes) -> NozzleTable:
@@ -568,34 +568,22 @@ def _load(path: Path, key: str, temperature_nodes, log_density_nodes, ratio_node
     return table
 
 
-def nozzle_table_for(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
+def nozzle_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
                      log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
                      cache_dir=None) -> NozzleTable:
-    """The real-gas nozzle table of `fluid` over `envelope` (e.g. `property_table.envelope_for(fluid, p_s, T_s,
-    p_d)`), loaded from the disk cache or built from HEOS and cached (atomic write).
-
-    The file name hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION; an unreadable or
-    mismatching file is rebuilt (with a warning), never trusted.
-    """
-    envelope = _check_envelope(fluid, envelope)
-    temperature_nodes = _check_count("temperature_nodes", temperature_nodes)
-    log_density_nodes = _check_count("log_density_nodes", log_density_nodes)
-    ratio_nodes = _check_ratio_nodes(ratio_nodes)
-    path = nozzle_table_path(fluid, envelope, temperature_nodes, log_density_nodes, ratio_nodes, cache_dir)
-    key = _cache_key(fluid, envelope, temperature_nodes, log_density_nodes, ratio_nodes)
-    if path.exists():
-        try:
-            return _load(path, key, temperature_nodes, log_density_nodes, ratio_nodes)
-        except Exception as error:              # any damage: the cache is disposable, rebuild it
-            warnings.warn(f"nozzle table cache {path} is unreadable ({type(error).__name__}: {error}); "
-                          "rebuilding it", RuntimeWarning, stacklevel=2)
-    table = build_nozzle_table(fluid, envelope, temperature_nodes, log_density_nodes, ratio_nodes)
-    try:
-        _save(path, key, table)
-    except OSError as error:                    # e.g. a read-only home: run without the cache
-        warnings.warn(f"cannot write the nozzle table cache {path} ({error}); continuing without it",
-                      RuntimeWarning, stacklevel=2)
-    return table
+    """The real-gas nozzle table of `fluid` over `envelope` (e.g. the operating point's), loaded from the disk cache
+    or built from HEOS and cached (thermo.disk_cache: atomic write; an unreadable or mismatching file is rebuilt
+    with a warning, never trusted). `fluid`: a Fluid, or anything naming one by its canonical `coolprop_name` (an
+    OperatingPoint): the Fluid, and with it CoolProp, is then made only if the table must be built. The file name
+    hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION."""
+    envelope = _checked_envelope(envelope)
+    counts = _counts(temperature_nodes, log_density_nodes, ratio_nodes)
+    key = _cache_key(fluid.coolprop_name, envelope, *counts)
+    return load_or_build(
+        nozzle_table_path(fluid, envelope, *counts, cache_dir=cache_dir), lambda stored: _load(stored, key, *counts),
+        lambda: build_nozzle_table(fluid if isinstance(fluid, Fluid) else Fluid(fluid.coolprop_name), envelope,
+                                   *counts),
+        lambda stream, table: np.savez(stream, key=np.array(key), **table._asdict()), "nozzle table")
 
 
 # ----------------------------------------------------------------------------------------------------------
