@@ -15,7 +15,9 @@ import numpy as np
 from rotary_vane.thermo.kernel import kernel
 from rotary_vane.thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
                                              ChamberInputs, chamber_energy, chamber_rates)
+from rotary_vane.thermo.leakage import parabolic_flank_length, tapered_gap_length
 from rotary_vane.thermo.property_table import PropertyTable
+from rotary_vane.thermo.real_gas_nozzle import NozzleTable
 
 from .chamber_geometry import SectorTable, chamber_geometry
 from .contact import slot_contacts, tip_contact
@@ -36,13 +38,14 @@ assert REAL_GAS_COLUMNS == OUTPUT_NAMES[REAL_GAS_FIRST_COLUMN:REAL_GAS_FIRST_COL
 
 class KernelContext(NamedTuple):
     """Everything an evaluation reads besides the state and the memory: the machine constants (record), the speed
-    law, the Level 0/0.5 p_L(phase) table, the chamber model's constants (record), the fluid property table and
-    the stator sector table."""
+    law, the Level 0/0.5 p_L(phase) table, the chamber model's constants (record), the fluid property table, the
+    real-gas nozzle table (thermo.real_gas_nozzle) and the stator sector table."""
     machine: np.ndarray
     law: np.ndarray
     pressure_table: np.ndarray
     chambers: np.ndarray
     properties: PropertyTable
+    nozzles: NozzleTable
     sectors: SectorTable
 
 
@@ -69,11 +72,39 @@ def table_pressures(pose, memory, m, pressure_table):
 
 
 @kernel
-def chamber_inputs(pose, tip, geometry, memory):
-    """What the chamber model needs of this pose: the geometry of docs/model.md §7.2, the lobe phase, the lift-off."""
+def tip_gap(tip):
+    """(lift-off [m], friction-equivalent flow length [m]) of the gap between the tip circle and the stator
+    (docs/model.md §7.4): a line seal h = delta + x^2/(2 R) with 1/R = 1/rho - kappa_S, the curvatures of the
+    tip candidate (docs/model.md §4.4), L_eq = (3 pi/8) sqrt(2 R delta)."""
+    lift = max(0.0, -tip.candidate.penetration)
+    radius = 1.0 / (tip.candidate.vane_curvature + tip.candidate.other_curvature)
+    return lift, 2.0 * parabolic_flank_length(lift, radius)
+
+
+@kernel
+def slot_face_gap(mouth, bottom, side, m):
+    """(narrowest height [m], friction-equivalent flow length [m]) of the gap between one side face of the vane
+    and its slot wall, from the back chamber to the chamber (docs/model.md §7.4). The face and the wall are flat,
+    so the height varies linearly from the bottom corner (region c3/c4: -delta) to the slot mouth (c1/c2: -delta
+    of its candidate, the bottom corner's if it has none) along the engaged length, from the bottom face xi_B to
+    the mouth level xi_E or, when the tip is inside the slot, to the tip centre xi_T; it is closed where the vane
+    touches the wall."""
+    bottom_gap = max(0.0, -bottom.penetration)
+    mouth_gap = max(0.0, -mouth.penetration) if math.isfinite(mouth.penetration) else bottom_gap
+    engaged = max(0.0, min(side.mouth_level, m.tip_centre) - m.bottom_face)
+    return min(bottom_gap, mouth_gap), tapered_gap_length(bottom_gap, mouth_gap, engaged)
+
+
+@kernel
+def chamber_inputs(pose, slots, tip, sides, geometry, memory, m):
+    """What the chamber model needs of this pose: the geometry of docs/model.md §7.2, the lobe phase, the tip and
+    side-face gaps (§7.4)."""
+    lift, tip_length = tip_gap(tip)
+    gap_leading, length_leading = slot_face_gap(slots.mouth_leading, slots.bottom_leading, sides[0], m)
+    gap_trailing, length_trailing = slot_face_gap(slots.mouth_trailing, slots.bottom_trailing, sides[1], m)
     return ChamberInputs(geometry.volume_leading, geometry.volume_trailing, geometry.rate_leading,
-                         geometry.rate_trailing, pose.theta - memory[MEM_LOBE_START],
-                         max(0.0, -tip.candidate.penetration))
+                         geometry.rate_trailing, pose.theta - memory[MEM_LOBE_START], lift, tip_length,
+                         gap_leading, length_leading, gap_trailing, length_trailing)
 
 
 @kernel
@@ -170,10 +201,14 @@ def report_chambers(out, y, inputs, flows, leading, trailing, c, table):
     mass, energy = chamber_energy(y, GAS_BLOCK, inputs, c, table)
     out[O.chamber_mass] = mass
     out[O.chamber_internal_energy] = energy
-    out[O.suction_mass_flow] = flows.suction
+    out[O.suction_mass_flow] = flows.suction_leading + flows.suction_trailing
     out[O.discharge_mass_flow] = flows.discharge
     out[O.tip_leak_mass_flow] = flows.tip_leak
-    out[O.valley_leak_mass_flow] = flows.valley_leak
+    out[O.end_valley_leak_mass_flow] = flows.end_valley_leak
+    out[O.start_valley_leak_mass_flow] = flows.start_valley_leak
+    out[O.slot_leak_leading_mass_flow] = flows.slot_leak_leading
+    out[O.slot_leak_trailing_mass_flow] = flows.slot_leak_trailing
+    out[O.metastable_flow_paths] = flows.metastable
     for k in range(GAS_STATE_SIZE - MASS_SUCTION):
         out[O.mass_suction + k] = y[GAS_BLOCK + MASS_SUCTION + k]
 
@@ -204,8 +239,9 @@ def chamber_geometry_of(gx, gy, phi, vx, vy, phi_dot, theta, omega, lobe_start, 
 def chamber_inputs_at(t, y, ctx, memory):
     """The ChamberInputs of the state (t, y) (the valley switch compares them before and after)."""
     pose, slots, tip, sides, basis = pose_stages(t, y, ctx, memory)
-    geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], ctx.machine[0], ctx.sectors)
-    return chamber_inputs(pose, tip, geometry, memory)
+    m = ctx.machine[0]
+    geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
+    return chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
 
 
 @kernel
@@ -225,10 +261,10 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     if real_gas or report:
         geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
     if real_gas:
-        inputs = chamber_inputs(pose, tip, geometry, memory)
+        inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
-        flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, dydt)
-        if leading.status != 0 or trailing.status != 0:
+        flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, dydt)
+        if leading.status != 0 or trailing.status != 0 or flows.refused != 0:
             status = GAS_STATE_INVALID
         pressures = (leading.pressure, trailing.pressure, m.discharge_pressure)
     else:

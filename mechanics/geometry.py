@@ -241,14 +241,57 @@ def _lobe_integral(nodes, weights, law, stroke, lobes, bottom_dwell, top_dwell, 
     return 0.5 * total - 0.5 * rotor_radius ** 2 * TWO_PI / lobes
 
 
+def _composite_gauss_legendre(edges, order=16):
+    """(nodes, weights) of an order-point Gauss-Legendre rule on every interval between consecutive edges."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    half = 0.5 * np.diff(edges)
+    return ((edges[:-1, None] + half[:, None] * (x[None, :] + 1.0)).ravel(), (half[:, None] * w[None, :]).ravel())
+
+
 def lobe_area(params, panels=64, order=16):
     """Area between stator and rotor over one lobe (docs/model.md §2.5), composite Gauss-Legendre:
 
     A_lobe = 1/2 int_{u_j}^{u_j+1} (S_x S'_y - S_y S'_x) du - 1/2 R_r^2 (2 pi / z)
     """
-    x, w = np.polynomial.legendre.leggauss(order)
-    edges = np.linspace(0.0, TWO_PI / params.lobes, panels + 1)
-    half = 0.5 * np.diff(edges)
-    nodes = (edges[:-1, None] + half[:, None] * (x[None, :] + 1.0)).ravel()
-    weights = (half[:, None] * w[None, :]).ravel()
+    nodes, weights = _composite_gauss_legendre(np.linspace(0.0, TWO_PI / params.lobes, panels + 1), order)
     return _lobe_integral(nodes, weights, *law_arguments(params), params.envelope_offset, params.rotor_radius)
+
+
+@kernel
+def _seal_integral(nodes, weights, gap, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, offset,
+                   rotor_radius):
+    total = 0.0
+    for i in range(nodes.size):
+        sx, sy, dsx, dsy, _ = stator_point(nodes[i], law, stroke, lobes, bottom_dwell, top_dwell, base_radius,
+                                           offset)
+        total += weights[i] * (gap / (math.sqrt(sx * sx + sy * sy) - rotor_radius)) ** 3 * math.sqrt(
+            dsx * dsx + dsy * dsy)
+    return total
+
+
+SEAL_FLANK_START = 1e-8             # rad: the flank's first interval (the seal of c_S = 1 nm spans 3e-4 rad)
+SEAL_FLANK_INTERVALS = 64           # geometrically graded from SEAL_FLANK_START to the mid-lobe
+
+
+def valley_seal_length(params) -> float:
+    """Friction-equivalent flow length [m] of the seal between the rotor and the stator at a valley
+    (docs/model.md §7.4):
+
+        L_eq = delta^3 int ds / g(u)^3,   g(u) = |S(u)| - R_r,   ds = |S'(u)| du,   delta = g(valley) = c_S
+
+    over the lobe on both sides of the valley (the laws are even about it), with the stator of §2.5: a bottom dwell
+    is a concentric stretch (g = c_S: L_flat = (R_r + c_S) beta0), a harmonic flank the parabolic gap of the
+    curvatures at the valley ((3 pi/16) sqrt(2 R c_S) each, thermo.leakage), and the cycloidal and 3-4-5 laws,
+    whose curvature at the valley is the rotor's, a gap growing with the cube of the angle. Composite
+    Gauss-Legendre on the dwell and on intervals graded geometrically away from it, which resolve the seal at any
+    clearance (no scipy: this runs at every start). 0 at c_S = 0 (closed)."""
+    gap = params.stator_clearance
+    if gap == 0.0:
+        return 0.0
+    dwell_end = 0.5 * params.bottom_dwell if params.displacement_law == "harmonic_dwell" else 0.0
+    flank = dwell_end + np.concatenate(([0.0], np.geomspace(SEAL_FLANK_START, math.pi / params.lobes - dwell_end,
+                                                            SEAL_FLANK_INTERVALS)))
+    edges = np.concatenate(([0.0], flank)) if dwell_end > 0.0 else flank
+    nodes, weights = _composite_gauss_legendre(edges)
+    return 2.0 * _seal_integral(nodes, weights, gap, *law_arguments(params), params.envelope_offset,
+                                params.rotor_radius)

@@ -20,6 +20,7 @@ import numpy as np
 from rotary_vane.thermo.kernel import copy_values, kernel
 from rotary_vane.thermo.chamber_model import gas_tolerance, switch_chambers
 from rotary_vane.thermo.property_table import table_from_arrays
+from rotary_vane.thermo.real_gas_nozzle import nozzle_table_from_arrays
 
 from .chamber_geometry import SectorTable
 from .dynamics import KernelContext, chamber_inputs_at, evaluate
@@ -355,43 +356,41 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
 
 @kernel(allocates=True)
 def context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
-            ideal_gas_exponent, sector_segments, sector_nodes):
+            ideal_gas_exponent, nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
+            nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity, nozzle_dome_limit, nozzle_accurate_cell,
+            sector_segments, sector_nodes):
     """The KernelContext of plain arrays: only arrays cross the Python -> numba boundary (a named tuple costs
     microseconds per call to unbox), the named records are built here."""
     return KernelContext(machine, law, pressure_table, chambers,
                          table_from_arrays(table_scalars, table_nodes, dome_limit, accurate_cell,
                                            ideal_gas_exponent),
+                         nozzle_table_from_arrays(nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
+                                                  nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity,
+                                                  nozzle_dome_limit, nozzle_accurate_cell),
                          SectorTable(sector_segments, sector_nodes))
 
 
 @kernel(allocates=True)
 def run(t, t_end, y, memory, control, history, window, run_dwell, work, outs, rows_out, keep_rows, lobe_records,
-        counters, machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
-        ideal_gas_exponent, sector_segments, sector_nodes):
-    """`advance` with its context and workspace given as arrays (the entry point mechanics.simulation calls): the
-    named records and the tuple of workspace rows are built here, once per advance."""
-    ctx = context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
-                  ideal_gas_exponent, sector_segments, sector_nodes)
+        counters, *context_arrays):
+    """`advance` with its context (the arrays of `context`, in its order) and workspace given as arrays (the entry
+    point mechanics.simulation calls): the named records and the tuple of workspace rows are built here, once per
+    advance."""
+    ctx = context(*context_arrays)
     work_rows = (work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10])
     return advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, outs[0], outs[1],
                    rows_out, keep_rows, lobe_records, counters)
 
 
 @kernel(allocates=True)
-def evaluate_state(t, y, memory, out, rates, machine, law, pressure_table, chambers, table_scalars, table_nodes,
-                   dome_limit, accurate_cell, ideal_gas_exponent, sector_segments, sector_nodes):
+def evaluate_state(t, y, memory, out, rates, *context_arrays):
     """dy/dt (into `rates`) and the output row (into `out`) of the state (t, y) with the given memory, as an
-    accepted step would report it; returns the kernel status of the state."""
-    ctx = context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
-                  ideal_gas_exponent, sector_segments, sector_nodes)
-    return evaluate(t, y, ctx, memory, rates, out, True)
+    accepted step would report it; returns the kernel status of the state. context_arrays: those of `context`."""
+    return evaluate(t, y, context(*context_arrays), memory, rates, out, True)
 
 
 @kernel(allocates=True)
-def initial_chamber_inputs(t, y, memory, machine, law, pressure_table, chambers, table_scalars, table_nodes,
-                           dome_limit, accurate_cell, ideal_gas_exponent, sector_segments, sector_nodes):
+def initial_chamber_inputs(t, y, memory, *context_arrays):
     """(V_L, V_T) geometric chamber volumes of the state (t, y), to fill the chambers at the start of a run."""
-    ctx = context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
-                  ideal_gas_exponent, sector_segments, sector_nodes)
-    inputs = chamber_inputs_at(t, y, ctx, memory)
+    inputs = chamber_inputs_at(t, y, context(*context_arrays), memory)
     return inputs.volume_leading, inputs.volume_trailing

@@ -109,12 +109,22 @@ STEP_OUTPUTS = (
     Output("suction_mass_flow", "kg/s", "mass flow through the suction port into both chambers", REAL_GAS),
     Output("discharge_mass_flow", "kg/s", "mass flow through the discharge valve", REAL_GAS),
     Output("tip_leak_mass_flow", "kg/s", "tip-gap leak, leading -> trailing chamber", REAL_GAS),
-    Output("valley_leak_mass_flow", "kg/s", "valley-seal leak, leading chamber -> idle lobe", REAL_GAS),
+    Output("end_valley_leak_mass_flow", "kg/s", "end-valley seal leak, leading chamber -> idle lobe ahead "
+           "(docs/model.md §7.4)", REAL_GAS),
+    Output("start_valley_leak_mass_flow", "kg/s", "start-valley seal leak, trailing chamber -> idle lobe behind",
+           REAL_GAS),
+    Output("slot_leak_leading_mass_flow", "kg/s", "slot side-face leak, back chamber -> leading chamber", REAL_GAS),
+    Output("slot_leak_trailing_mass_flow", "kg/s", "slot side-face leak, back chamber -> trailing chamber",
+           REAL_GAS),
+    Output("metastable_flow_paths", "1", "flow paths whose isentropic throat is the metastable gas-branch "
+           "continuation within 1 K of the two-phase dome (nozzle status 8, docs/model.md §7.4)", REAL_GAS),
     Output("mass_suction", "kg", "cumulative net mass from the suction side", REAL_GAS),
     Output("mass_discharge", "kg", "cumulative mass through the discharge valve", REAL_GAS),
     Output("energy_suction", "J", "cumulative energy from the suction side", REAL_GAS),
     Output("energy_discharge", "J", "cumulative enthalpy through the discharge valve", REAL_GAS),
     Output("work_chambers", "J", "cumulative p dV work on the two chambers", REAL_GAS),
+    Output("mass_back_chamber", "kg", "cumulative net mass from the back chamber (slot side faces)", REAL_GAS),
+    Output("energy_back_chamber", "J", "cumulative energy from the back chamber (slot side faces)", REAL_GAS),
 )
 
 
@@ -184,6 +194,8 @@ FIGURES = (
            fmu="suction_mass_flow"),
     Figure("discharge_mass_flow", "kg/s", "mean mass flow through the discharge valve", REAL_GAS,
            fmu="discharge_mass_flow"),
+    Figure("back_chamber_mass_flow", "kg/s", "mean net mass flow from the back chamber through the slot side faces "
+           "(the net delivery is discharge_mass_flow minus it)", REAL_GAS),
     Figure("discharge_enthalpy", "J/kg", "mass-weighted enthalpy of the discharged gas", REAL_GAS),
     Figure("gas_mass_residual", "1", "chamber mass balance residual / delivered mass", REAL_GAS),
     Figure("gas_energy_residual", "1", "chamber energy balance residual / chamber work", REAL_GAS),

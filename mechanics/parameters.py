@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rotary_vane.thermo.fluid import UnknownFluidError
+from rotary_vane.thermo.leakage import LEAKAGE_LAWS
 from rotary_vane.thermo.operating_point import operating_point_for
 
 from .geometry import check_stator_regularity
@@ -93,7 +94,25 @@ class CompressorParameters:
     suction_port_coefficient: float = _number(0.7, "1", 0.1, 1.0, "discharge coefficient of the suction port")
     discharge_port_area: float = _number(20e-6, "m2", 1e-7, 1e-2, "discharge port area A_d")
     discharge_port_coefficient: float = _number(0.7, "1", 0.1, 1.0, "discharge coefficient of the discharge port")
-    leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient C_d,leak of the clearance gaps")
+    # leakage paths (docs/model.md §7.4): each with its law (real_gas; Level 0.5 has the end-valley seal only, as
+    # "nozzle" or "sealed") and the discharge coefficient its "nozzle" law uses
+    end_valley_leak_law: str = _choice("nozzle", LEAKAGE_LAWS, "leakage law of the end-valley seal c_S L, leading "
+                                       "chamber <-> idle lobe ahead (docs/model.md §7.4)")
+    end_valley_leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient of the end-valley seal "
+                                                 "under the nozzle law")
+    start_valley_leak_law: str = _choice("nozzle", LEAKAGE_LAWS, "leakage law of the start-valley seal c_S L, "
+                                         "trailing chamber <-> idle lobe behind (real_gas only)")
+    start_valley_leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient of the start-valley "
+                                                   "seal under the nozzle law")
+    tip_leak_law: str = _choice("nozzle", LEAKAGE_LAWS, "leakage law of the tip gap (lift-off x L), leading <-> "
+                                "trailing chamber (real_gas only)")
+    tip_leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient of the tip gap under the "
+                                          "nozzle law")
+    slot_leak_law: str = _choice("sealed", LEAKAGE_LAWS, "leakage law of the gaps between the vane's side faces "
+                                 "and the slot walls, back chamber <-> leading and trailing chamber (real_gas only; "
+                                 "sealed: an oil-sealed slot)")
+    slot_leak_coefficient: float = _number(0.65, "1", 0.0, 1.0, "discharge coefficient of the slot side-face gaps "
+                                           "under the nozzle law")
     heat_capacity_ratio: float = _number(1.10, "1", 1.01, 2.0, "ideal-gas heat capacity ratio k (Level 0.5)")
     gas_constant: float = _number(81.5, "J/(kg.K)", 1.0, 5000.0, "specific gas constant R (Level 0.5)")
     # numerics (docs/model.md §8)
@@ -231,6 +250,10 @@ def _validate_relations(params: CompressorParameters) -> None:
             raise ValueError(f"parameter '{name}' = {getattr(p, name):g} is out of range for {p.fluid} at "
                              + ", ".join(f"{n} = {getattr(p, n):g}" for n in OPERATING_POINT if n != name)
                              + f": {text}") from None
+    if p.pressure_model == "ideal_gas_table" and p.end_valley_leak_law == "friction_corrected":
+        _reject("end_valley_leak_law", p.end_valley_leak_law,
+                "nozzle or sealed with pressure_model 'ideal_gas_table' (the friction-corrected law needs the "
+                "fluid's viscosity: pressure_model 'real_gas')")
     if p.min_step >= p.max_step or p.initial_step > p.max_step:
         _reject("min_step", p.min_step, f"min_step < initial_step <= max_step = {p.max_step:g} s")
     if p.stroke >= p.base_radius:

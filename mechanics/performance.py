@@ -48,9 +48,10 @@ class WindowSummary:
     # chamber gas (real gas; NaN for the pressure tables), docs/model.md §6.4, §7
     suction_mass_flow: float = math.nan     # net mass from the suction side / duration [kg/s]
     discharge_mass_flow: float = math.nan   # mass through the discharge valve / duration [kg/s]
+    back_chamber_mass_flow: float = math.nan   # net mass from the back chamber (slot side faces) / duration [kg/s]
     discharge_enthalpy: float = math.nan    # mass-weighted enthalpy of the discharged gas [J/kg]
-    gas_mass_residual: float = math.nan     # (dm_chambers - m_suction + m_discharge) / m_discharge
-    gas_energy_residual: float = math.nan   # (dU_chambers - E_suction + E_discharge - W_chambers) / W_chambers
+    gas_mass_residual: float = math.nan     # (dm_chambers - m_suction + m_discharge - m_back) / m_discharge
+    gas_energy_residual: float = math.nan   # (dU_chambers - E_suction + E_discharge - E_back - W_chambers) / W_chambers
     discharge_temperature: float = math.nan   # T(p_d, discharge_enthalpy) [K]
     volumetric_efficiency: float = math.nan   # delivered mass / (rho_s z L A_lobe)
     isentropic_efficiency: float = math.nan   # m_dot_d (h_2s - h_1) / <P_in>
@@ -142,7 +143,8 @@ def _gas_figures(start: np.ndarray, end: np.ndarray, duration: float, input_powe
     (docs/model.md §11): the chamber contents change by what crossed their boundary."""
     change = {name: end[getattr(O, name)] - start[getattr(O, name)]
               for name in ("chamber_mass", "chamber_internal_energy", "mass_suction", "mass_discharge",
-                           "energy_suction", "energy_discharge", "work_chambers")}
+                           "energy_suction", "energy_discharge", "work_chambers", "mass_back_chamber",
+                           "energy_back_chamber")}
     if not math.isfinite(change["mass_discharge"]):
         return {}
     delivered = change["mass_discharge"]
@@ -152,11 +154,12 @@ def _gas_figures(start: np.ndarray, end: np.ndarray, duration: float, input_powe
     return dict(
         **figures,
         suction_mass_flow=change["mass_suction"] / duration, discharge_mass_flow=delivered / duration,
-        discharge_enthalpy=discharge_enthalpy,
-        gas_mass_residual=(change["chamber_mass"] - change["mass_suction"] + delivered) / delivered
-        if delivered > 0.0 else math.nan,
+        back_chamber_mass_flow=change["mass_back_chamber"] / duration, discharge_enthalpy=discharge_enthalpy,
+        gas_mass_residual=(change["chamber_mass"] - change["mass_suction"] + delivered
+                           - change["mass_back_chamber"]) / delivered if delivered > 0.0 else math.nan,
         gas_energy_residual=(change["chamber_internal_energy"] - change["energy_suction"]
-                             + change["energy_discharge"] - change["work_chambers"]) / change["work_chambers"])
+                             + change["energy_discharge"] - change["energy_back_chamber"]
+                             - change["work_chambers"]) / change["work_chambers"])
 
 
 def complete(records: np.ndarray) -> np.ndarray:

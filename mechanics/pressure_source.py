@@ -44,5 +44,6 @@ def leading_pressure_table(params, angular_speed):
     return ideal_gas_pressure_table(
         phase, volume, volume_derivative, angular_speed, params.suction_pressure, params.suction_temperature,
         params.discharge_pressure, params.suction_close_angle, params.stator_clearance * params.axial_length,
-        params.leak_coefficient, params.discharge_port_area, params.discharge_port_coefficient,
+        0.0 if params.end_valley_leak_law == "sealed" else params.end_valley_leak_coefficient,
+        params.discharge_port_area, params.discharge_port_coefficient,
         params.heat_capacity_ratio, params.gas_constant)

@@ -16,6 +16,7 @@ import numpy as np
 from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
 from rotary_vane.thermo.fluid import Fluid
 from rotary_vane.thermo.property_table import describe_status, table_from_arrays, table_status
+from rotary_vane.thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
 
 from .chamber_geometry import sector_table
 from .displacement import displacement
@@ -111,7 +112,7 @@ class Simulation:
         self.machine = record_of(machine)          # the constants by name (mechanics.machine)
         sectors = sector_table(self.machine)
         self._context = (machine, None, self.gas.pressure_table, self.gas.chambers, *self.gas.properties,
-                         sectors.segments, sectors.nodes)
+                         *self.gas.nozzles, sectors.segments, sectors.nodes)
         self.keep_history = keep_history
         self.time = 0.0
         self.speed_law = speed.segment(0.0, float(initial_angle))
@@ -298,6 +299,7 @@ class Simulation:
         text = STATUS_TEXT[status]
         if status == GAS_STATE_INVALID and self.gas_reference is not None:
             table = table_from_arrays(*self.gas.properties)
+            nozzles = nozzle_table_from_arrays(*self.gas.nozzles)
             fluid = Fluid(self.gas_reference.point.coolprop_name)         # for the exact state near the dome
             volumes = (self.last_output[OUTPUT_INDEX["leading_volume"]],
                        self.last_output[OUTPUT_INDEX["trailing_volume"]])
@@ -305,11 +307,15 @@ class Simulation:
                                                            ("trailing", TRAILING_TEMPERATURE, TRAILING_MASS))):
                 temperature_value = self.state[GAS_BLOCK + temperature]
                 density = self.state[GAS_BLOCK + mass] / volumes[k]
+                where = f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})"
                 code = table_status(temperature_value, density, table)
+                nozzle_code = table_viscosity(temperature_value, density, nozzles)[1]   # the nozzle inlet's status
                 if code != 0:
                     text += "; " + describe_status(code, temperature_value, density, table,
-                                                   fluid=fluid,
-                                                   state=f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})")
+                                                   fluid=fluid, state=where)
+                elif nozzle_code != 0:
+                    text += "; " + describe_nozzle_status(nozzle_code, temperature_value, density, nozzles,
+                                                          fluid=fluid, state=where)
             text += self._port_hint()
         return text
 

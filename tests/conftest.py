@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 
 class HarmonicPitch:
@@ -82,6 +82,68 @@ class HarmonicPitch:
         du = 2.0 * math.pi / samples
         a, b = u[i] - 2.0 * du, u[i] + 2.0 * du
         return brentq(lambda v: self.residual(v, tx, ty), a, b, xtol=1e-15, rtol=8.9e-16, maxiter=200)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# References of the flow paths (docs/model.md §7.4): CoolProp's isentropic expansion and PDSim's leakage correlation
+
+class IsentropicExpansion:
+    """Isentropic expansion from (T0, rho0) with CoolProp's equilibrium flashes (independent of the module)."""
+
+    def __init__(self, fluid_name, temperature, density):
+        import CoolProp as CP
+        self.state = CP.AbstractState("HEOS", fluid_name)
+        self.state.update(CP.DmassT_INPUTS, density, temperature)
+        self.pressure = self.state.p()
+        self.enthalpy = self.state.hmass()
+        self.entropy = self.state.smass()
+        self._choked = None
+
+    def expand(self, pressure):
+        """(G, T) at p on the isentrope."""
+        import CoolProp as CP
+        self.state.update(CP.PSmass_INPUTS, pressure, self.entropy)
+        return self.state.rhomass() * math.sqrt(max(0.0, 2.0 * (self.enthalpy - self.state.hmass()))), self.state.T()
+
+    def two_phase(self, pressure):
+        """True if the isentrope is inside the dome at p (CoolProp's phase determination)."""
+        import CoolProp as CP
+        self.state.update(CP.PSmass_INPUTS, pressure, self.entropy)
+        return self.state.phase() == CP.iphase_twophase
+
+    def choked(self):
+        """(p*, G*): G maximised over p in [0.3 p0, 0.99 p0] (pr* is 0.45-0.62 for these fluids)."""
+        if self._choked is None:
+            result = minimize_scalar(lambda ratio: -self.expand(ratio * self.pressure)[0], bounds=(0.3, 0.99),
+                                     method="bounded", options={"xatol": 1e-9})
+            self._choked = (result.x * self.pressure, -result.fun)
+        return self._choked
+
+    def flux(self, pressure_down):
+        """(G, throat T, throat p) for the expansion to p_down."""
+        critical, choked_flux = self.choked()
+        if pressure_down <= critical:
+            return choked_flux, self.expand(critical)[1], critical
+        flux, temperature = self.expand(pressure_down)
+        return flux, temperature, pressure_down
+
+
+# PDSim/flow/flow_models.pyx, as PDSim writes it (older versions keep exactly this list)
+A_RADIAL = [25932.1070099, 0.914825434095, -177.588568125, -0.237052788124, -172347.610527, -12.0687599808,
+            -0.0128861161041, -151.202604262, -0.999674457769, 0.0161435039267, 0.825533456725]
+RE_STAR_RADIAL = 5243.58194594
+
+
+def pdsim_mdot_ratio(delta, t, Re):
+    """PDSim's mdot_ratio for Type == TYPE_RADIAL (mdot_friction = mdot_nozzle / mdot_ratio); 1 for Re <= 1e-12."""
+    if not Re > 1e-12:
+        return 1.0
+    a = A_RADIAL
+    xi = 1.0 / (1.0 + math.exp(-0.01 * (Re - RE_STAR_RADIAL)))
+    Lstar = t / 0.005
+    delta_star = delta / 10e-6
+    return (a[0] * pow(Lstar, a[1]) / (a[2] * delta_star + a[3])
+            * (xi * (a[4] * pow(Re, a[5]) + a[6]) + (1 - xi) * (a[7] * pow(Re, a[8]) + a[9])) + a[10])
 
 
 def speed_law_reference(t, shape, omega_ss, duration=0.4, theta0=0.0):

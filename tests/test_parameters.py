@@ -34,7 +34,10 @@ def test_defaults_match_spec_table():
                     friction_coefficient=0.085, friction_velocity=1e-3, suction_pressure=0.2928e6,
                     suction_temperature=283.15, discharge_pressure=1.3179e6, polytropic_exponent=1.10,
                     suction_close_angle=math.radians(10.0), dead_volume=0.05e-6, discharge_port_area=20e-6,
-                    discharge_port_coefficient=0.7, leak_coefficient=0.65, heat_capacity_ratio=1.10,
+                    discharge_port_coefficient=0.7, end_valley_leak_law="nozzle", end_valley_leak_coefficient=0.65,
+                    start_valley_leak_law="nozzle", start_valley_leak_coefficient=0.65, tip_leak_law="nozzle",
+                    tip_leak_coefficient=0.65, slot_leak_law="sealed", slot_leak_coefficient=0.65,
+                    heat_capacity_ratio=1.10,
                     gas_constant=81.5, relative_tolerance=3e-5, initial_step=1e-6, min_step=1e-9, max_step=2e-5,
                     max_onset_penetration=1e-6, mode_dwell_time=10e-6, stiffness_model="hertz_point",
                     friction_model="threlfall", pressure_model="real_gas", fluid="R134a")
