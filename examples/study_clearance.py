@@ -1,5 +1,6 @@
 """Clearance study (thesis ch. 5; docs/model.md §4.6, §6.4, §10-§11): c_R = c_S in {0, 0.02, 0.05, 0.1, 0.2} mm at 1000,
-1500 and 2000 rpm, z = 3, Level 0.5 pressure table (the library's default, docs/model.md §6.1).
+1500 and 2000 rpm, z = 3, Level 0.5 pressure table (the thesis's gas loads, docs/model.md §6.1); and the energy
+ledger at 1500 rpm for both pressure models and both leak laws.
 
 Each point runs the library's `Simulation` at constant speed from the nominal pose (docs/model.md §3.3) for 4 revolutions
 and reports the last full one (3 settling revolutions; `--quick`: 3 and 2), with `mechanics.performance` (means
@@ -8,6 +9,9 @@ from the work integrals, docs/model.md §6.4; dwell-filtered contact modes, docs
 Written to `<out>/clearance/` (and printed):
 * powers.md / powers.csv: mean input, output, friction and damping power, mechanical efficiency, energy-balance
   residual, peak contact force, peak tilt and distinct modes per point;
+* ledger.md: at 1500 rpm, for the Level 0.5 table and real gas (nozzle leak law, and real gas with every open
+  leakage path friction-corrected): mechanical, volumetric and isentropic efficiency, the energy ledger of
+  docs/model.md §6.4, peak slot and tip force and the contact modes counted both ways (§4.6);
 * kinematics.md: max / min / time-rms of s_r, v_r, a_r, v_theta, a_theta (docs/model.md §3.4) and tilt per clearance;
 * contact_forces.md: peak normal force per region c1..c6 and the time-mean of the summed normal force;
 * constraint_moments.md: max / mean / min of the driving torque T_d = -lambda6 and of the stator contact moment
@@ -56,9 +60,34 @@ QUICK_REVOLUTIONS = 3
 
 # running points --------------------------------------------------------------------------------------------
 def study_parameters(clearance_mm: float, lobes: int) -> CompressorParameters:
-    """Library defaults (Level 0.5 table, Dormand-Prince) with c_R = c_S = clearance, as in the thesis."""
+    """The Level 0.5 pressure table (the thesis's gas loads) and the library's other defaults, c_R = c_S =
+    clearance."""
     return CompressorParameters(slot_clearance=clearance_mm * 1e-3, stator_clearance=clearance_mm * 1e-3,
-                                lobes=lobes)
+                                lobes=lobes, pressure_model="ideal_gas_table")
+
+
+LEDGER_RPM = 1500.0
+# (pressure model, leak law of the open leakage paths): the friction-corrected law needs the real fluid's viscosity
+LEDGER_CASES = (("ideal_gas_table", "nozzle"), ("real_gas", "nozzle"), ("real_gas", "friction_corrected"))
+OPEN_LEAK_PATHS = ("end_valley_leak_law", "start_valley_leak_law", "tip_leak_law")
+
+
+def ledger_parameters(model: str, leak_law: str, clearance_mm: float) -> CompressorParameters:
+    """Defaults at clearance c_R = c_S, z = 3, the given pressure model, and every open leakage path on the given
+    law (the slot faces stay sealed, docs/model.md §7.4)."""
+    laws = {} if leak_law == "nozzle" else dict.fromkeys(OPEN_LEAK_PATHS, leak_law)
+    return CompressorParameters(slot_clearance=clearance_mm * 1e-3, stator_clearance=clearance_mm * 1e-3,
+                                lobes=LOBES, pressure_model=model, **laws)
+
+
+def simulate_ledger_point(model: str, leak_law: str, clearance_mm: float, revolutions: int) -> Run:
+    return run_one(clearance_mm, ledger_parameters(model, leak_law, clearance_mm), LEDGER_RPM, revolutions)
+
+
+def describe_ledger_point(task: tuple, run: Run) -> str:
+    model, leak_law, clearance_mm, _ = task
+    return (f"{model}, {leak_law}, c = {clearance_mm:g} mm: ledger residual "
+            f"{100 * run.summary.ledger_residual:+.4f} %, {run.wall_time:.2f} s")
 
 
 def load_kernels() -> None:
@@ -149,6 +178,30 @@ KINEMATICS = (  # (symbol, history column, scale, unit, format), docs/model.md �
     ("tilt", "vane_tilt", 1e3, "mrad", "{:.3f}"),
 )
 STATISTICS = (("max", lambda x, t: float(np.max(x))), ("min", lambda x, t: float(np.min(x))), ("rms", time_rms))
+
+
+LEDGER_HEADERS = ["pressure model", "leak law", "c [mm]", "eta_m [%]", "eta_v [%]", "eta_is [%]", "<P_in> [W]",
+                  "<P_ind> [W]", "<P_gap> [W]", "<P_fric> [W]", "<P_damp> [W]", "stored [W]", "ledger residual [%]",
+                  "max slot F [N]", "max tip F [N]", "modes (regions)", "modes (+ candidate)"]
+
+
+def percent(value: float) -> str:
+    return f"{100 * value:.2f}" if math.isfinite(value) else "-"
+
+
+def ledger_table(ledger_runs: dict) -> str:
+    """Efficiencies, the energy ledger (docs/model.md §6.4), peak slot and tip force and both mode counts (§4.6)."""
+    rows = []
+    for (model, leak_law, clearance_mm), run in ledger_runs.items():
+        s = run.summary
+        rows.append([model, leak_law, f"{clearance_mm:g}", percent(s.mechanical_efficiency),
+                     percent(s.volumetric_efficiency), percent(s.isentropic_efficiency), f"{s.input_power:.2f}",
+                     f"{s.indicated_power:.2f}", f"{s.gap_power:.2f}", f"{s.friction_power:.2f}",
+                     f"{s.damping_power:.3f}", f"{s.storage_power:+.3f}", f"{100 * s.ledger_residual:+.4f}",
+                     f"{s.max_slot_force:.1f}", f"{s.max_tip_force:.1f}", f"{s.mode_count}",
+                     f"{s.mode_count_extended}"])
+    return markdown_table(LEDGER_HEADERS, rows, f"Energy ledger, efficiencies, peak forces and contact modes at "
+                                                f"{LEDGER_RPM:g} rpm, z = {LOBES}, last revolution")
 
 
 def clearance_headers(clearances) -> list[str]:
@@ -359,6 +412,18 @@ def captions(runs: dict, speeds, clearances) -> dict[str, str]:
     return result
 
 
+def ledger_caption(ledger_runs: dict) -> str:
+    """What the ledger table shows, from its numbers."""
+    residual = max(abs(run.summary.ledger_residual) for run in ledger_runs.values())
+    gap_share = [run.summary.gap_power / run.summary.input_power for run in ledger_runs.values()]
+    return (f"Shaft work split per revolution into indicated work on all chambers, work on the open gaps' sweep, "
+            f"friction, contact damping and stored energy (docs/model.md §6.4) for both pressure models and both "
+            f"leak laws: the ledger closes to {100 * residual:.3f} % or better at every point; the gap work is "
+            f"{100 * min(gap_share):.1f}-{100 * max(gap_share):.1f} % of the shaft power. Peak force per region "
+            f"group (slot c1-c4, tip c5/c6) and the distinct modes counted by regions and by regions plus the "
+            f"slot-mouth candidate (docs/model.md §4.6).")
+
+
 def region_figure(rpm: float) -> str:
     return f"contact_regions_{rpm:g}rpm.png"
 
@@ -414,10 +479,19 @@ def main(argv=None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 1
     runs = {(rpm, c): run for (rpm, c, _), run in zip(tasks, results)}
+    ledger_tasks = [(model, law, c, revolutions) for model, law in LEDGER_CASES for c in clearances]
+    print(f"energy ledger: {len(ledger_tasks)} points at {LEDGER_RPM:g} rpm")
+    try:
+        ledger_results = run_points(simulate_ledger_point, ledger_tasks, workers, describe_ledger_point)
+    except PointFailed as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    ledger_runs = {(model, law, c): run for (model, law, c, _), run in zip(ledger_tasks, ledger_results)}
     simulated = time.perf_counter() - start
 
     write_tables(folder, {
         "powers.md": [powers_table(runs)],
+        "ledger.md": [ledger_table(ledger_runs)],
         "kinematics.md": [kinematics_table(runs, rpm, clearances) for rpm in speeds],
         "contact_forces.md": [contact_force_table(runs, rpm, clearances) for rpm in speeds],
         "constraint_moments.md": [constraint_moment_table(runs, rpm, clearances) for rpm in speeds],
@@ -432,8 +506,9 @@ def main(argv=None) -> int:
     total = time.perf_counter() - start
 
     text = captions(runs, speeds, clearances)
+    text["ledger.md"] = ledger_caption(ledger_runs)
     order = ["powers_vs_clearance.png", "powers_all_speeds.png", "efficiency_vs_clearance.png",
-             "powers.md", "powers.csv", *(region_figure(rpm) for rpm in speeds), "contact_modes.md",
+             "powers.md", "ledger.md", "powers.csv", *(region_figure(rpm) for rpm in speeds), "contact_modes.md",
              "kinematics.md", "contact_forces.md", "constraint_moments.md"]
     settings = (f"z = {LOBES}, harmonic law, Level 0.5 pressure table, Dormand-Prince 5(4); c_R = c_S in "
                 f"{{{', '.join(f'{c:g}' for c in clearances)}}} mm at {', '.join(f'{s:g}' for s in speeds)} rpm; "
