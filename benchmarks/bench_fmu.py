@@ -21,8 +21,10 @@ warm-up run that loads the compiled kernels, then `repeats` timed runs; the medi
    issue's target: the FMU at most 10 % slower than the core - reported, not asserted), wrapper overhead per
    communication step in µs = (FMU wall - core-as-glue wall) / steps, and the integrator's accepted steps and
    right-hand-side evaluations of the core cases (what the communication step costs inside the core).
-2. First-step latency of the FMU in fresh processes: cold (empty ROTARY_VANE_CACHE_DIR: numba compiles) and warm
-   (the same folder again; fmpy unpacks the FMU to a new temporary folder each time), by phase.
+2. First-step latency of the FMU in fresh processes, by phase, median of 3 processes per case (fmpy unpacks the FMU
+   to a new temporary folder each time): an empty ROTARY_VANE_CACHE_DIR with the kernels the FMU ships; an empty
+   one with the same sources built `--no-kernels` (numba compiles, as an FMU whose kernels do not fit the machine);
+   and that FMU again with the cache the compiling run filled (warm).
 """
 from __future__ import annotations
 
@@ -45,6 +47,7 @@ CLEARANCE = 0.05e-3                       # m, slot and stator
 STEP_SIZES = (1e-4, 1e-3)
 WORKER_FLAG = "--worker"
 TARGET_SLOWDOWN = 0.10                    # the issue: FMU at most 10 % slower than the core
+LATENCY_REPEATS = 3                       # fresh processes per first-step latency case (median)
 CRASHES: list[str] = []                  # worker processes that crashed (before or after reporting)
 COUNTER_NAMES = ("accepted", "rejected", "evaluations", "valley_crossings", "mode_changes", "restarts")
 FMU_CASES = ("fmpy simulate_fmu", "low-level doStep", "low-level set+step+get")
@@ -98,9 +101,9 @@ def stderr_tail(done) -> str:
     return "".join(f"\n      {line[:160]}" for line in picked)
 
 
-def build_fmu(out_dir: Path) -> Path:
-    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir)], cwd=REPO_ROOT,
-                          capture_output=True, text=True)
+def build_fmu(out_dir: Path, *options: str) -> Path:
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir), *options],
+                          cwd=REPO_ROOT, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"FMU build failed:\n{done.stdout}\n{done.stderr}")
     return out_dir / f"{MODEL}.fmu"
@@ -286,23 +289,29 @@ def stepping(fmu: Path, stop_time: float, repeats: int) -> None:
               f"{'met' if slowdown <= TARGET_SLOWDOWN else 'NOT met'} vs the core stepped alike)")
 
 
-def latency(fmu: Path) -> None:
-    heading("2. first-step latency of the FMU in fresh processes (import fmpy ... end of the first do_step)")
-    rows = []
-    with tempfile.TemporaryDirectory(prefix="rvc_cache_") as cache:
-        folders = set()
-        for label in ("cold (empty ROTARY_VANE_CACHE_DIR)", "warm (same cache, new unpack folder)",
-                      "warm again"):
-            r = run_worker({"kind": "latency", "fmu": str(fmu)}, {"ROTARY_VANE_CACHE_DIR": cache})
-            folders.add(r["unzipdir"])
-            rows.append([label] + [f"{r[k]:.3f}" for k in ("import fmpy", "extract + read", "instantiate",
-                                                          "initialize", "first do_step", "total")]
-                        + [f"{r['process_wall']:.3f}"])
-        files = sum(1 for p in Path(cache).rglob("*") if p.is_file())
-    print(table(["case", "import fmpy [s]", "extract [s]", "instantiate [s]", "initialize [s]", "first do_step [s]",
-                 "total [s]", "process [s]"], rows))
-    print(f"({len(folders)} different unpack folders; {files} files in the cache after the cold run; 'process' "
-          f"includes interpreter start-up and exit)")
+def latency(fmu: Path, compiling_fmu: Path, repeats: int) -> None:
+    heading(f"2. first-step latency of the FMU in fresh processes (import fmpy ... end of the first do_step), median "
+            f"of {repeats} processes")
+    phases = ("import fmpy", "extract + read", "instantiate", "initialize", "first do_step", "total")
+    rows, notes = [], []
+    with tempfile.TemporaryDirectory(prefix="rvc_cache_") as folder:
+        caches = []
+        for label, path, warm in (("empty cache, kernels shipped in the FMU", fmu, False),
+                                  ("empty cache, built --no-kernels (compiles)", compiling_fmu, False),
+                                  ("warm cache, built --no-kernels", compiling_fmu, True)):
+            results = []
+            for _ in range(repeats):
+                if not warm:                         # a new empty cache folder for each process
+                    caches.append(Path(folder) / f"cache_{len(caches)}")
+                results.append(run_worker({"kind": "latency", "fmu": str(path)},
+                                          {"ROTARY_VANE_CACHE_DIR": str(caches[-1])}))
+            rows.append([label] + [f"{statistics.median(r[phase] for r in results):.3f}" for phase in phases]
+                        + [f"{statistics.median(r['process_wall'] for r in results):.3f}"])
+            kernels = sum(1 for _ in caches[-1].rglob("*.nb[ic]"))
+            notes.append(f"{label}: {len({r['unzipdir'] for r in results})} unpack folders, {kernels} kernel cache "
+                         f"files after the runs")
+    print(table(["case", *(f"{phase} [s]" for phase in phases), "process [s]"], rows))
+    print("(" + "; ".join(notes) + "; 'process' includes interpreter start-up and exit)")
 
 
 def main() -> None:
@@ -317,16 +326,19 @@ def main() -> None:
         worker(args.worker)
         return
     stop_time, repeats = (0.02, 1) if args.quick else (args.stop_time, args.repeats)
+    latency_repeats = 1 if args.quick else LATENCY_REPEATS
     import fmpy
     import numba
     import numpy
     print(f"python {sys.version.split()[0]}, numpy {numpy.__version__}, numba {numba.__version__}, "
           f"fmpy {fmpy.__version__}, {os.cpu_count()} CPUs")
     with tempfile.TemporaryDirectory(prefix="rvc_fmu_") as folder:
-        fmu = args.fmu if args.fmu else build_fmu(Path(folder))
-        print(f"FMU: {fmu}{' (built from this checkout)' if not args.fmu else ''}")
+        fmu = args.fmu if args.fmu else build_fmu(Path(folder) / "shipped")
+        compiling_fmu = build_fmu(Path(folder) / "compiling", "--no-kernels")
+        print(f"FMU: {fmu}{' (built from this checkout)' if not args.fmu else ''}; for the compiling cases: "
+              f"this checkout built --no-kernels")
         stepping(fmu, stop_time, repeats)
-        latency(fmu)
+        latency(fmu, compiling_fmu, latency_repeats)
     if CRASHES:
         print(f"\n!! {len(CRASHES)} worker process crash(es); crashed runs were repeated:\n   "
               + "\n   ".join(CRASHES))
