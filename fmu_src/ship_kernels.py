@@ -54,8 +54,8 @@ def run_fmu(pressure_model: str, integrator: str) -> None:
 
 
 def bundle_kernels() -> list[Dispatcher]:
-    """Every kernel of the bundled packages."""
-    prefix = PROJECT_DIR.name + "."
+    """Every kernel of the bundled packages (those of this module's top-level package)."""
+    prefix = __name__.split(".")[0] + "."
     kernels = {id(value): value for name, module in list(sys.modules.items()) if name.startswith(prefix)
                for value in vars(module).values()
                if isinstance(value, Dispatcher) and isinstance(value._cache, compile_cache.KernelCache)}
@@ -74,9 +74,9 @@ def ship(into: Path) -> None:
                 target = into / path.relative_to(folder)
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(path, target)
-    cpu, requires = compile_cache.portable_cpu(compile_cache.environment_stamp(PROJECT_DIR, digest)["platform"])
-    stamp = {**compile_cache.environment_stamp(PROJECT_DIR, digest), "cpu": cpu, "cpu_features": "",
-             "cpu_requires": list(requires)}
+    stamp = compile_cache.environment_stamp(PROJECT_DIR, digest)
+    cpu, requires = compile_cache.portable_cpu(stamp["platform"])
+    stamp.update(cpu=cpu, cpu_features="", cpu_requires=list(requires))
     (into / compile_cache.STAMP_FILE).write_text(json.dumps(stamp, indent=1) + "\n", encoding="utf-8")
 
 
@@ -89,9 +89,10 @@ def main(argv=None) -> int:
         parser.error(f"--into {args.into}: already exists")
     triple = compile_cache.environment_stamp(PROJECT_DIR)["platform"]
     target = (triple, compile_cache.portable_cpu(triple)[0], "")
-    if registry.cpu_target.target_context.codegen().magic_tuple() != target:
-        parser.error(f"numba compiles for {registry.cpu_target.target_context.codegen().magic_tuple()}, not for "
-                     f"{target}: run with NUMBA_CPU_NAME={target[1]} NUMBA_CPU_FEATURES=''")
+    compiles_for = registry.cpu_target.target_context.codegen().magic_tuple()
+    if compiles_for != target:
+        parser.error(f"numba compiles for {compiles_for}, not for {target}: run with NUMBA_CPU_NAME={target[1]} "
+                     f"NUMBA_CPU_FEATURES=''")
     with event.install_recorder("numba:compile") as recorder:
         for pressure_model in PRESSURE_MODELS:
             for integrator in INTEGRATORS:
@@ -99,8 +100,8 @@ def main(argv=None) -> int:
     if args.into is not None:
         compiled = sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in recorder.buffer if e.is_start})
         if compiled:
-            print(f"the second run compiled {', '.join(compiled)}: the FMU runs do not ask numba for the same "
-                  f"kernels each time", file=sys.stderr)
+            print(f"the second run compiled {', '.join(compiled)}: not in the cache the first run filled (a "
+                  f"kernel numba cannot cache, or runs that ask for other kernels each time)", file=sys.stderr)
             return 1
         ship(args.into)
     return 0
