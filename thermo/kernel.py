@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 from numba import njit
+from numba.core.dispatcher import Dispatcher
 
 from .compile_cache import KernelCache
 
@@ -26,7 +27,8 @@ def kernel(function=None, *, allocates: bool = False):
 
     def compiled(function):
         dispatcher = njit(**options)(function)
-        dispatcher._cache = KernelCache(dispatcher.py_func)   # what cache=True sets (Dispatcher.enable_caching)
+        if isinstance(dispatcher, Dispatcher):        # under NUMBA_DISABLE_JIT=1 njit returns the Python function
+            dispatcher._cache = KernelCache(dispatcher.py_func)   # what cache=True sets (Dispatcher.enable_caching)
         return dispatcher
     return compiled if function is None else compiled(function)
 
