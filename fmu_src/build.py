@@ -164,6 +164,8 @@ def ship_kernels(staging: Path, private: str) -> str:
     env = {name: value for name, value in os.environ.items() if not name.startswith("NUMBA_")}
     env.update(PYTHONPATH=os.pathsep.join(filter(None, [str(staging), env.get("PYTHONPATH")])),
                NUMBA_CPU_NAME=cpu, NUMBA_CPU_FEATURES="")
+    print(f"compiling the kernels the FMUs ship, for the CPU {cpu} (about a minute; --no-kernels leaves them out)",
+          file=sys.stderr, flush=True)
     with tempfile.TemporaryDirectory(prefix="rvc_kernels_") as temporary:
         compiled, loaded = Path(temporary) / "compile", Path(temporary) / "load"
         for root, arguments in ((compiled, []), (loaded, ["--into", str(bundle / SHIPPED_FOLDER)])):

@@ -55,7 +55,7 @@ def run_fmu(pressure_model: str, integrator: str) -> None:
 
 def bundle_kernels() -> list[Dispatcher]:
     """Every kernel of the bundled packages (those of this module's top-level package)."""
-    prefix = __name__.split(".")[0] + "."
+    prefix = __package__.split(".")[0] + "."          # run with -m, __name__ is "__main__"
     kernels = {id(value): value for name, module in list(sys.modules.items()) if name.startswith(prefix)
                for value in vars(module).values()
                if isinstance(value, Dispatcher) and isinstance(value._cache, compile_cache.KernelCache)}
@@ -67,13 +67,15 @@ def ship(into: Path) -> None:
     docstring)."""
     digest = compile_cache.source_hash(PROJECT_DIR)
     folder = compile_cache.cache_folder(PROJECT_DIR, digest)
+    loaded = [kernel for kernel in bundle_kernels() if kernel.stats.cache_hits]
+    if not loaded:
+        raise RuntimeError(f"no kernel of {__package__.split('.')[0]} was loaded from the cache {folder}")
     into.mkdir(parents=True)
-    for kernel in bundle_kernels():
-        if kernel.stats.cache_hits:
-            for path in kernel._cache.files():
-                target = into / path.relative_to(folder)
-                target.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(path, target)
+    for kernel in loaded:
+        for path in kernel._cache.files():
+            target = into / path.relative_to(folder)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, target)
     stamp = compile_cache.environment_stamp(PROJECT_DIR, digest)
     cpu, requires = compile_cache.portable_cpu(stamp["platform"])
     stamp.update(cpu=cpu, cpu_features="", cpu_requires=list(requires))

@@ -109,6 +109,7 @@ def test_the_stamp_names_this_environment_and_a_build_without_kernels_ships_none
     stamp = stamp_of(fmu)
     with zipfile.ZipFile(fmu) as archive:
         bundle = next(n for n in archive.namelist() if n.endswith(STAMP_MEMBER)).split("/")[1]
+        shipped = [n.split("/compiled_kernels/")[1] for n in archive.namelist() if "/compiled_kernels/" in n]
         archive.extractall(tmp_path / "unpacked", [n for n in archive.namelist()
                                                   if n.startswith(f"resources/{bundle}/") and n.endswith(".py")])
     sources = compile_cache.source_hash(tmp_path / "unpacked" / "resources" / bundle)
@@ -116,6 +117,8 @@ def test_the_stamp_names_this_environment_and_a_build_without_kernels_ships_none
         compile_cache.environment_stamp(tmp_path, sources)
     cpu, requires = compile_cache.portable_cpu(stamp["platform"])
     assert (stamp["cpu"], stamp["cpu_features"], stamp["cpu_requires"]) == (cpu, "", list(requires))
+    for kernel in ("mechanics/integrators.run-", "mechanics/integrators.evaluate_state-"):   # the time loop's entries
+        assert [n for n in shipped if n.startswith(kernel) and n.endswith(".nbi")], shipped
     without = H.build_fmu(tmp_path / "without", options=["--no-kernels"])
     with zipfile.ZipFile(without) as archive:
         assert not any("/compiled_kernels/" in name for name in archive.namelist())
