@@ -164,6 +164,17 @@ def test_a_stamp_that_does_not_fit_is_refused_with_the_reason(tmp_path, changes,
     assert target is None and reason in refusal, refusal
 
 
+def test_a_cpu_whose_features_llvm_cannot_tell_uses_only_generic_kernels(tmp_path, monkeypatch):
+    def unknown():
+        raise RuntimeError("no feature map")
+    monkeypatch.setattr(compile_cache.llvm, "get_host_cpu_features", unknown)
+    write_stamp(tmp_path, cpu_requires=["sse4.2"])
+    assert compile_cache.shipped_kernels(tmp_path, DIGEST)[1] == (
+        "they need the CPU features sse4.2, and this CPU's are unknown (no feature map)")
+    write_stamp(tmp_path, cpu="generic", cpu_requires=[])
+    assert compile_cache.shipped_kernels(tmp_path, DIGEST)[0][1:] == ("generic", "")
+
+
 def test_an_unreadable_stamp_is_refused_with_the_reason(tmp_path):
     (tmp_path / compile_cache.SHIPPED_FOLDER).mkdir()
     assert "stamp.json is unusable (FileNotFoundError" in compile_cache.shipped_kernels(tmp_path, DIGEST)[1]

@@ -113,8 +113,12 @@ def shipped_kernels(project_dir: Path, digest: str) -> tuple[tuple[str, str, str
                    for name, value in current.items() if stamp[name] != value]
     if differences:
         return None, f"they were compiled for another environment ({'; '.join(differences)})"
-    host = llvm.get_host_cpu_features()
-    missing = [feature for feature in stamp["cpu_requires"] if not host.get(feature, False)]
+    required = stamp["cpu_requires"]
+    try:
+        host = llvm.get_host_cpu_features() if required else {}
+    except RuntimeError as error:                # LLVM cannot tell on some platforms (numba then assumes none)
+        return None, f"they need the CPU features {', '.join(required)}, and this CPU's are unknown ({error})"
+    missing = [feature for feature in required if not host.get(feature, False)]
     if missing:
         return None, f"they were compiled for the CPU {stamp['cpu']}, whose {', '.join(missing)} this CPU lacks"
     return (stamp["platform"], stamp["cpu"], stamp["cpu_features"]), None
