@@ -155,9 +155,9 @@ def run_worker(arguments: dict, env: dict | None = None) -> dict:
     return json.loads(lines[-1])
 
 
-def build_fmu(out_dir: Path) -> Path:
-    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir)], cwd=REPO_ROOT,
-                          capture_output=True, text=True)
+def build_fmu(out_dir: Path, *options: str) -> Path:
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir), *options],
+                          cwd=REPO_ROOT, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"FMU build failed:\n{done.stdout}\n{done.stderr}")
     return out_dir / f"{MODEL}.fmu"
@@ -196,14 +196,19 @@ def stepping(fmu: Path, stop: float, repeats: int) -> None:
           "fmpy at h = 0.1 ms <= 1.3x; glue <= 30 us per step")
 
 
-def latency(fmu: Path) -> None:
+def latency(fmu: Path, without_kernels: Path | None) -> None:
     heading("3. first-step latency of a fresh process (defaults: real gas, R134a)")
     rows = []
-    with tempfile.TemporaryDirectory(prefix="rvc_cache_") as cache:
-        for label, env in (("empty cache folder", {"ROTARY_VANE_CACHE_DIR": cache}),
-                           ("warm (the same folder again)", {"ROTARY_VANE_CACHE_DIR": cache}),
-                           ("warm (the user's cache)", None)):
-            r = run_worker({"worker": "latency", "fmu": str(fmu)}, env)
+    with tempfile.TemporaryDirectory(prefix="rvc_cache_") as cache, \
+            tempfile.TemporaryDirectory(prefix="rvc_cache_") as other:
+        cases = [("empty cache folder", fmu, {"ROTARY_VANE_CACHE_DIR": cache}),
+                 ("warm (the same folder again)", fmu, {"ROTARY_VANE_CACHE_DIR": cache}),
+                 ("warm (the user's cache)", fmu, None)]
+        if without_kernels is not None:
+            cases.append(("empty cache folder, FMU built --no-kernels", without_kernels,
+                          {"ROTARY_VANE_CACHE_DIR": other}))
+        for label, path, env in cases:
+            r = run_worker({"worker": "latency", "fmu": str(path)}, env)
             rows.append([label] + [f"{r[k]:.3f}" for k in ("import fmpy", "extract + instantiate", "initialize",
                                                           "first doStep", "instantiate -> first doStep")])
     print(table(["case", "import fmpy [s]", "extract+instantiate [s]", "initialize [s]", "first doStep [s]",
@@ -238,9 +243,10 @@ def main() -> None:
         fmu = args.fmu.resolve() if args.fmu else build_fmu(Path(folder))
         if not fmu.is_file():
             parser.error(f"'--fmu' = {str(args.fmu)!r} is not a file")
+        without_kernels = None if args.fmu else build_fmu(Path(folder) / "no_kernels", "--no-kernels")
         print(f"FMU: {fmu}")
         stepping(fmu, stop, repeats)
-        latency(fmu)
+        latency(fmu, without_kernels)
 
 
 if __name__ == "__main__":

@@ -34,8 +34,9 @@ tcp://host:8786`). Workers read the FMU from its path: on a remote cluster the f
 path on every worker host (a shared filesystem; a worker that lacks it, or has a different build, records the
 point as failed). Each worker needs Python of the client's minor version with dask/distributed and cloudpickle
 of the client's versions, fmpy, and the FMU's resources/requirements.txt (numpy, numba, pythonfmu; CoolProp for real gas); this project need
-not be installed there: the FMU bundles its code and this module's functions are sent by value. The first point on
-a new host compiles the numba kernels (about 10 s; cached in ROTARY_VANE_CACHE_DIR or ~/.cache).
+not be installed there: the FMU bundles its code and this module's functions are sent by value. The FMU ships its
+numba kernels compiled; a host whose numba, Python or CPU they do not fit compiles them at its first point (about
+30 s; cached in ROTARY_VANE_CACHE_DIR or ~/.cache).
 
 Python API (run it under `if __name__ == "__main__":`: local workers are spawned processes that import the main
 module):

@@ -5,21 +5,28 @@ of the version and a hash of the sources, with their imports rewritten to it (as
 a host that has already imported another `mechanics` or `thermo`, or another version of this project, still
 runs the FMU's own code. The entry module pythonfmu loads is generated here; the FMU also carries
 `documentation/index.html` and `resources/requirements.txt`, and is built with `--handle-state --serialize-state`.
+
+The bundle also carries its kernels compiled for a portable CPU (`compiled_kernels/`, thermo.compile_cache), made
+by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_* settings are not used);
+`--no-kernels` leaves them out (a smaller FMU whose first run compiles them).
 """
 from __future__ import annotations
 
 import argparse
 import html
 import json
+import os
 import re
 import shutil
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 from pythonfmu import FmuBuilder
 
-from rotary_vane.thermo.compile_cache import PROJECT_PACKAGES, source_hash
+from rotary_vane.thermo.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
+                                              cache_folder, environment_stamp, portable_cpu, source_hash)
 
 from .requirements import bundled_requirements
 from .status_shim import DEGRADED as SHIM_DEGRADED
@@ -84,8 +91,9 @@ def vendor(destination: Path, private: str) -> Path:
     return package
 
 
-def documentation_html(model: str, slave_class, requirements: list[str]) -> str:
-    """documentation/index.html: what the FMU is, its variables, and how to run it."""
+def documentation_html(model: str, slave_class, requirements: list[str], kernels: str) -> str:
+    """documentation/index.html: what the FMU is, its variables, and how to run it (`kernels`: how the first run
+    gets its compiled kernels)."""
     slave = slave_class(instance_name="documentation")
     rows = []
     for variable in slave.vars.values():
@@ -104,9 +112,7 @@ rotary-vane-compressor project, version {VERSION}. All values are SI except the 
 <h2>Running it</h2>
 <p>The FMU runs Python inside the host: the host needs Python 3 with the packages of
 <code>resources/requirements.txt</code>: {html.escape(", ".join(requirements))} (CoolProp is imported only for
-the real-gas chambers). The first run on a machine compiles the numerical
-kernels (about 10 s, once); they are cached in <code>~/.cache/rotary-vane-compressor/numba</code>
-(or <code>$ROTARY_VANE_CACHE_DIR</code>).</p>
+the real-gas chambers). {html.escape(kernels)}</p>
 <p>{html.escape(getattr(slave_class, "documentation_note", ""))}</p>
 <p>fmpy (pass the communication step as <code>output_interval</code>, turn debug logging on):</p>
 <pre>from fmpy import simulate_fmu
@@ -147,9 +153,40 @@ def ship_map(private: str, map_file: Path) -> None:
                      settings=tables.MapSettings(table_speed_rpm=operating), cache_dir=mode.SHIPPED_TABLES)
 
 
-def build(out_dir: Path, map_file: Path | None = None) -> list[Path]:
-    """Write every FMU of MODELS into out_dir (the compressor with the periodic-map table of `map_file` if given);
-    return their paths."""
+def ship_kernels(staging: Path, private: str) -> str:
+    """Compile the kernels of the bundle in `staging` into its compiled_kernels/ (fmu_src.ship_kernels: two
+    processes with numba's portable CPU, none of the builder's NUMBA_* settings and temporary cache folders, the
+    second one's holding nothing but the kernels the first compiled); return what the documentation says of them."""
+    bundle = staging / private
+    stamp = environment_stamp(bundle)
+    cpu = portable_cpu(stamp["platform"])[0]
+    command = [sys.executable, "-m", f"{private}.fmu_src.ship_kernels"]
+    env = {name: value for name, value in os.environ.items() if not name.startswith("NUMBA_")}
+    env.update(PYTHONPATH=os.pathsep.join(filter(None, [str(staging), env.get("PYTHONPATH")])),
+               NUMBA_CPU_NAME=cpu, NUMBA_CPU_FEATURES="")
+    print(f"compiling the kernels the FMUs ship, for the CPU {cpu} (about a minute; --no-kernels leaves them out)",
+          file=sys.stderr, flush=True)
+    with tempfile.TemporaryDirectory(prefix="rvc_kernels_") as temporary:
+        compiled, loaded = Path(temporary) / "compile", Path(temporary) / "load"
+        for root, arguments in ((compiled, []), (loaded, ["--into", str(bundle / SHIPPED_FOLDER)])):
+            if root == loaded:      # like a machine whose cache has the kernels and nothing else (property tables)
+                loaded.mkdir()
+                shutil.move(cache_folder(bundle, stamp["sources"], compiled),
+                            cache_folder(bundle, stamp["sources"], loaded))
+            done = subprocess.run(command + arguments, cwd=temporary, capture_output=True, text=True,
+                                  env={**env, CACHE_ENVIRONMENT_VARIABLE: str(root)})
+            if done.returncode != 0:
+                raise RuntimeError(f"compiling the kernels to ship failed ({' '.join(command + arguments)}: exit "
+                                   f"status {done.returncode}):\n{done.stderr[-3000:]}")
+    return (f"The FMU ships its numerical kernels compiled for the CPU {cpu} ({stamp['platform']}) with numba "
+            f"{stamp['numba']}, llvmlite {stamp['llvmlite']} and Python {stamp['python']}: with exactly these a "
+            f"first run loads them; otherwise the first run on a machine compiles them (about 30 s, once, and says "
+            f"why in a log message) into ~/.cache/rotary-vane-compressor/numba (or $ROTARY_VANE_CACHE_DIR).")
+
+
+def build(out_dir: Path, map_file: Path | None = None, kernels: bool = True) -> list[Path]:
+    """Write every FMU of MODELS into out_dir (the compressor with the periodic-map table of `map_file` if given,
+    with the compiled kernels unless `kernels` is false); return their paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
     private = private_package_name()
     built = []
@@ -157,6 +194,9 @@ def build(out_dir: Path, map_file: Path | None = None) -> list[Path]:
         staging = Path(temporary)
         package = vendor(staging, private)
         requirements = bundled_requirements([package])
+        shipped = ship_kernels(staging, private) if kernels else (
+            "The first run on a machine compiles the numerical kernels (about 30 s, once); they are cached in "
+            "~/.cache/rotary-vane-compressor/numba (or $ROTARY_VANE_CACHE_DIR).")
         (staging / "requirements.txt").write_text("\n".join(requirements) + "\n")
         sys.path.insert(0, str(staging))
         try:
@@ -169,7 +209,8 @@ def build(out_dir: Path, map_file: Path | None = None) -> list[Path]:
                                                      description=slave_class.__doc__))
                 documentation = staging / f"documentation_{model}"
                 documentation.mkdir()
-                (documentation / "index.html").write_text(documentation_html(model, slave_class, requirements))
+                (documentation / "index.html").write_text(documentation_html(model, slave_class, requirements,
+                                                                                shipped))
                 fmu = FmuBuilder.build_FMU(
                     entry, dest=out_dir / f"{model}.fmu", project_files=[package, staging / "requirements.txt"],
                     documentation_folder=documentation, canGetAndSetFMUstate=True, canSerializeFMUstate=True)
@@ -195,10 +236,13 @@ def main(argv=None) -> int:
     parser.add_argument("--map", type=Path, default=None, metavar="PARAMETERS.json",
                         help="ship the periodic-map table of this compressor parameter set (JSON of parameter "
                              "names and values, optionally pressure_table_speed in rpm) inside the FMU")
+    parser.add_argument("--no-kernels", action="store_true",
+                        help="do not ship the compiled kernels (a smaller FMU, built in seconds, whose first run "
+                             "on a machine compiles them)")
     args = parser.parse_args(argv)
     if args.map is not None and not args.map.is_file():
         parser.error(f"--map {args.map}: no such file")
-    for path in build(args.out, args.map):
+    for path in build(args.out, args.map, kernels=not args.no_kernels):
         print(path)
     return 0
 

@@ -18,6 +18,7 @@ from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simula
 from rotary_vane.mechanics.layout import WORK_IN
 from rotary_vane.mechanics.modes import MODE_COUNT
 from rotary_vane.mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
+from rotary_vane.thermo.compile_cache import cache_root, shipped_kernels_refusal
 
 from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
@@ -140,6 +141,10 @@ class CompressorSlave(GuardedSlave):
             if not (math.isfinite(value) and low <= value <= high):
                 raise ValueError(f"parameter '{name}' = {value!r} is out of range: allowed [{low:g}, {high:g}]")
         check_fidelity(self.fidelity)
+        refusal = shipped_kernels_refusal()
+        if refusal is not None:
+            self.report(f"the kernels compiled into this FMU are not used: {refusal}; numba loads them from, or "
+                        f"compiles them into, {cache_root()} (about 30 s, once per machine)", Fmi2Status.ok)
         self._build(params, self.shaft_speed)
 
     def _build(self, params, speed_rpm):

@@ -28,7 +28,7 @@ PROJECT_DIR = Path(__file__).resolve().parents[1]
 TESTS_DIR = Path(__file__).resolve().parent
 MODEL = "RotaryVaneCompressor"
 RESULT_PREFIX = "@@RESULT@@ "
-DEFAULT_TIMEOUT = 240.0               # s per host process (a cold numba compile takes about 10-15 s)
+DEFAULT_TIMEOUT = 240.0               # s per host process (a cold numba compile takes about 30 s)
 STATUS_NAMES = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 OK, WARNING, DISCARD, ERROR, FATAL = range(5)
 CACHE_ENVIRONMENT_VARIABLE = "ROTARY_VANE_CACHE_DIR"
@@ -41,11 +41,12 @@ OPERATING_POINT = {"shaft_speed": 1500.0, "slot_clearance": 5e-5, "stator_cleara
 
 
 # test side ----------------------------------------------------------------------------------------------------
-def build_fmu(out_dir: Path, project_dir: Path = PROJECT_DIR, timeout: float = 300.0) -> Path:
-    """Build the FMU of the sources in `project_dir` into `out_dir` (a subprocess); return the .fmu path."""
+def build_fmu(out_dir: Path, project_dir: Path = PROJECT_DIR, timeout: float = 300.0, options=()) -> Path:
+    """Build the FMU of the sources in `project_dir` into `out_dir` (a subprocess, with the build's `options`);
+    return the .fmu path."""
     out_dir = Path(out_dir)
-    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir)], cwd=project_dir,
-                          env=host_environment(), capture_output=True, text=True, timeout=timeout)
+    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(out_dir), *options],
+                          cwd=project_dir, env=host_environment(), capture_output=True, text=True, timeout=timeout)
     if done.returncode != 0:
         raise RuntimeError(f"FMU build in {project_dir} failed with exit status {done.returncode}:\n"
                            f"{done.stdout}\n{done.stderr}")

@@ -5,8 +5,8 @@ clearances x three speeds) and one point the FMU refuses at initialization (disc
 suction_pressure: inside its declared range, so only the FMU can tell). The run is killed with SIGKILL as soon as
 the first row is in the store, then the same command resumes it, then `--retry-failed` reruns the refused point.
 Each point is made slow enough to be killed mid-way (max_step = 0.5 us: about 0.2 s of work per point).
-The numba kernels are cached in a temporary ROTARY_VANE_CACHE_DIR for this module, compiled by one warm-up run
-(not by both workers at once).
+The workers load the numba kernels the FMU ships; anything else is cached in a temporary ROTARY_VANE_CACHE_DIR
+for this module.
 
 What is checked: every point is in the store exactly once, the rows written before the kill are kept unchanged
 and not run again, the orphaned worker processes end; the refused point is failed with the FMU's message naming
@@ -168,8 +168,6 @@ def runs(fmu, space, tmp_path_factory):
     """The campaign killed after its first row, resumed, then rerun with --retry-failed."""
     folder = tmp_path_factory.mktemp("campaign")
     env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("numba_cache"))})
-    H.run_host(f"import fmu_helpers as H\nH.simulate({str(fmu)!r}, stop_time=0.002, output_interval=1e-3)",
-               env=env).check()                   # compiles the kernels into the module's cache
     points_file = folder / "points.json"
     points_file.write_text(json.dumps([*GOOD_POINTS, BAD_POINT]))
     store = folder / "results.csv"

@@ -2,9 +2,9 @@
 
 The FMU is built once for this module (`python -m rotary_vane.fmu_src.build`) into a temporary folder, and every FMU run
 happens in a separate host process (tests/fmu_helpers.py) whose exit status is checked: a crash of the FMU or at
-interpreter exit fails the test instead of killing pytest. The numba
-kernels are cached in a temporary ROTARY_VANE_CACHE_DIR for the module (the user's cache is never touched); a
-warm-up run compiles them once.
+interpreter exit fails the test instead of killing pytest. The FMU
+loads the numba kernels it ships; anything else is cached in a temporary ROTARY_VANE_CACHE_DIR for the module (the
+user's cache is never touched).
 
 What is checked:
 * energy at any communication step: constant speed, a ramp and a step input, communication steps 1e-4 ... 0.05 s,
@@ -99,7 +99,7 @@ H.emit(out)
 
 @pytest.fixture(scope="module")
 def short_reference(fmu, env) -> dict:
-    """Warm-up and reference: 20 steps of 1 ms at the operating point in a clean host (compiles the kernels)."""
+    """Warm-up and reference: 20 steps of 1 ms at the operating point in a clean host."""
     run = H.run_host(script(SHORT_RUN, fmu=fmu), env=env).check()
     out = run.result
     assert out["columns"]["time"][-1] == pytest.approx(0.02)
@@ -563,10 +563,13 @@ H.emit({"unzipdir": host.unzipdir, "instantiate": t1 - t0, "initialize": t2 - t1
 """
 
 
-def test_fresh_process_loads_the_compiled_kernels_from_the_cache(fmu, tmp_path):
-    """After the first run on a machine, a new process - whose fmpy unpacks the FMU to a new temporary folder -
-    does not compile the numba kernels again: its first do_step writes nothing new into the cache folder
-    (ROTARY_VANE_CACHE_DIR; nothing goes to the user's cache or to NUMBA_CACHE_DIR either)."""
+def test_fresh_process_loads_the_compiled_kernels_from_the_cache(tmp_path):
+    """An FMU without shipped kernels (built --no-kernels; the same path as one whose kernels this machine cannot
+    use, tests/test_fmu_shipped_kernels.py): after the first run on a machine, a new process - whose fmpy unpacks
+    the FMU to a new temporary folder - does not compile the numba kernels again: its first do_step writes nothing
+    new into the cache folder (ROTARY_VANE_CACHE_DIR; nothing goes to the user's cache or to NUMBA_CACHE_DIR
+    either)."""
+    fmu = H.build_fmu(tmp_path / "fmu", options=["--no-kernels"])
     cache, user_cache, numba_cache = tmp_path / "cache", tmp_path / "xdg", tmp_path / "numba_cache_dir"
     env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(cache)}, XDG_CACHE_HOME=str(user_cache),
                              NUMBA_CACHE_DIR=str(numba_cache))

@@ -199,3 +199,21 @@ def test_integration_error_survives_pickling():
     assert (error.reason, error.time) == ("the step size fell below min_step", 0.25)
     assert np.array_equal(error.state, np.arange(3.0))
     assert "t = 0.25 s" in str(error)
+
+
+def test_kernels_are_the_python_functions_without_numba_jit():
+    """Under NUMBA_DISABLE_JIT=1 (debugging, the pure-Python benchmark) `@kernel` leaves the Python function, which
+    the packages import and run."""
+    import os
+    import subprocess
+    import sys
+    script = ("import numpy as np\n"
+              "import rotary_vane.mechanics\n"
+              "from rotary_vane.thermo.kernel import copy_values\n"
+              "target = np.zeros(4)\n"
+              "copy_values(target, 1, np.arange(5.0), 2, 3)\n"
+              "print(type(copy_values).__name__, target.tolist())\n")
+    done = subprocess.run([sys.executable, "-c", script], env={**os.environ, "NUMBA_DISABLE_JIT": "1"},
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.split() == ["function", "[0.0,", "2.0,", "3.0,", "4.0]"]

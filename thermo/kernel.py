@@ -1,7 +1,8 @@
 """How the project compiles the functions of its time loop (docs/model.md §8.2).
 
 `@kernel` is numba's nopython mode with three settings every loop function shares:
-- cached on disk (per source version, thermo.compile_cache), so a new process does not compile again;
+- cached on disk (per source version, thermo.compile_cache), so a new process does not compile again, and read from
+  the kernels an FMU ships compiled when they can be used (`KernelCache`);
 - numpy's error model: a division by zero or the logarithm of a negative number gives inf or NaN, never a Python
   exception, so nothing can leave the compiled loop as an exception; the loop checks its state for finiteness and
   stops with a named status instead;
@@ -13,16 +14,23 @@
 from __future__ import annotations
 
 from numba import njit
+from numba.core.dispatcher import Dispatcher
+
+from .compile_cache import KernelCache
 
 
 def kernel(function=None, *, allocates: bool = False):
     """Compile `function` for the time loop (module docstring); `allocates=True` if it creates arrays or views."""
-    options = dict(cache=True, error_model="numpy")
+    options = dict(error_model="numpy")
     if not allocates:
         options["_nrt"] = False
-    if function is None:
-        return njit(**options)
-    return njit(**options)(function)
+
+    def compiled(function):
+        dispatcher = njit(**options)(function)
+        if isinstance(dispatcher, Dispatcher):        # under NUMBA_DISABLE_JIT=1 njit returns the Python function
+            dispatcher._cache = KernelCache(dispatcher.py_func)   # what cache=True sets (Dispatcher.enable_caching)
+        return dispatcher
+    return compiled if function is None else compiled(function)
 
 
 @kernel
