@@ -117,10 +117,17 @@ def summarise(result, speed_rpm: float, gas_outputs: bool) -> dict:
         "mean_shaft_torque": float(end["input_power"]) / (speed_rpm * harness.RPM),
         "input_power": float(end["input_power"]),
         "output_power": float(end["output_power"]),
+        "indicated_power": float(end["indicated_power"]),
+        "gap_power": float(end["gap_power"]),
         "friction_power": float(end["friction_power"]),
         "damping_power": float(end["damping_power"]),
+        "energy_ledger_residual": float(end["energy_ledger_residual"]),
         "mechanical_efficiency": float(end["mechanical_efficiency"]),
         "max_contact_force": float(end["max_contact_force"]),
+        "max_slot_force": float(end["max_slot_force"]),
+        "max_tip_force": float(end["max_tip_force"]),
+        "revolution_mode_count": int(end["revolution_mode_count"]),
+        "revolution_mode_count_extended": int(end["revolution_mode_count_extended"]),
         "sampled_peak_region": f"c{busiest + 1}",
         "sampled_peak_force": sampled_peaks[busiest],
         "sampled_peak_forces": sampled_peaks,
@@ -139,15 +146,19 @@ def print_summary(s: dict) -> None:
           f"figures over the last completed revolution:")
     print(f"  mean shaft torque        {s['mean_shaft_torque']:10.4f} N.m   (input power / omega)")
     print(f"  input power              {s['input_power']:10.2f} W")
-    print(f"  output power (to gas)    {s['output_power']:10.2f} W")
+    print(f"  output power (to gas)    {s['output_power']:10.2f} W     = indicated {s['indicated_power']:.2f} W "
+          f"(p dV on the chambers) + gap sweep {s['gap_power']:.2f} W")
     print(f"  friction power           {s['friction_power']:10.2f} W")
     print(f"  contact damping power    {s['damping_power']:10.3f} W")
+    print(f"  energy ledger residual   {100.0 * s['energy_ledger_residual']:10.4f} %     (shaft work not accounted "
+          f"for, docs/model.md §6.4)")
     print(f"  mechanical efficiency    {100.0 * s['mechanical_efficiency']:10.2f} %")
-    print(f"  peak contact force       {s['max_contact_force']:10.1f} N     (any region, every internal step); "
-          f"largest at the communication points: {s['sampled_peak_region']} "
-          f"({s['sampled_peak_force']:.1f} N)")
-    print(f"  distinct contact modes   {s['contact_mode_count']:10d}       (whole run, dwell-filtered); "
-          f"at the communication points of the last revolution: {', '.join(s['sampled_modes'])}")
+    print(f"  peak contact force       {s['max_contact_force']:10.1f} N     slot c1-c4 {s['max_slot_force']:.1f} N, "
+          f"tip c5/c6 {s['max_tip_force']:.1f} N (every internal step); largest at the communication points: "
+          f"{s['sampled_peak_region']} ({s['sampled_peak_force']:.1f} N)")
+    print(f"  distinct contact modes   {s['revolution_mode_count']:10d}       (regions; "
+          f"{s['revolution_mode_count_extended']} with the slot-mouth candidate, docs/model.md §4.6); whole run "
+          f"{s['contact_mode_count']}; at the communication points: {', '.join(s['sampled_modes'])}")
     print(f"  discharge mass flow      {gas(s['discharge_mass_flow'], 'kg/s', 5)}")
     print(f"  discharge temperature    {gas(s['discharge_temperature'], 'K', 5)}")
 
