@@ -1,4 +1,4 @@
-"""Benchmark of the mechanics time loop (PERFORMANCE.md, docs/model.md §8): prints figures, asserts nothing.
+"""Benchmark of the mechanics time loop (docs/model.md §8): prints figures, asserts nothing.
 
 Run from anywhere:  python benchmarks/bench_mechanics.py [--revolutions N] [--repeats R] [--quick]
 

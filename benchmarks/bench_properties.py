@@ -1,4 +1,4 @@
-"""Benchmark of the real-gas property table (docs/model.md §7.3; PERFORMANCE.md "Real-gas properties"): prints figures,
+"""Benchmark of the real-gas property table (docs/model.md §7.3): prints figures,
 asserts nothing.
 
 Run from anywhere:  python benchmarks/bench_properties.py [--quick] [--calls N]

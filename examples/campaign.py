@@ -272,7 +272,7 @@ def grid(axes: dict, fixed: dict | None = None) -> list[dict]:
 
 # the worker side -------------------------------------------------------------------------------------------
 class FmuRunner:
-    """One FMU instance in a worker process, reused for point after point with fmi2Reset (FMI_NOTES: fmpy)."""
+    """One FMU instance in a worker process, reused for point after point with fmi2Reset."""
 
     def __init__(self, fmu: str, guid: str, scratch: str | None = None):
         """Unpack the FMU into a new folder under `scratch` (default: the temporary folder)."""

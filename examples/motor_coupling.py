@@ -2,7 +2,7 @@
 with fmpy's low-level API, the same system in libcosim, a convergence study over the communication step and the
 motor sizing figures.
 
-The system (README "Coupling to a motor", FMI_NOTES "Motor coupling"): the motor integrates the shaft with its own
+The system (README "Coupling to a motor"): the motor integrates the shaft with its own
 inertia plus the compressor's rotor inertia J2 (the motor's load_inertia = the compressor FMU's default
 rotor_inertia; the compressor's rotor_inertia = 0, else its torque would contain J2 dw/dt a second time) and
 outputs shaft_speed [rpm]; the compressor takes that speed as the speed at the end of each step (it moves the

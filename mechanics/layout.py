@@ -1,5 +1,5 @@
 """Index layout of the state and memory arrays the time loop shares with Python, and its status codes
-(docs/model.md §8.1, ARCHITECTURE "State"). The output row's layout is in mechanics.outputs.
+(docs/model.md §8.1). The output row's layout is in mechanics.outputs.
 
 - state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp (docs/model.md §6.4);
   under real gas the chamber model's state block follows (thermo.chamber_model, from GAS_BLOCK on);

@@ -12,6 +12,7 @@ import numpy as np
 from .chamber_geometry import sector_integral, sector_table
 from .displacement import LAW_CODES
 from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
+from ..thermo.kernel import kernel_record
 
 
 class VaneMassProperties(NamedTuple):
@@ -104,7 +105,7 @@ def machine_array(p: CompressorParameters) -> np.ndarray:
     for name, value in values.items():
         machine[name] = value
     machine["stator_lobe_integral"] = 2.0 * sector_integral(math.pi / p.lobes, sector_table(record_of(machine)))
-    return machine
+    return kernel_record(machine)
 
 
 def record_of(array: np.ndarray):

@@ -1,4 +1,4 @@
-"""The compressor's parameters, declared once (ARCHITECTURE "One source of truth").
+"""The compressor's parameters, declared once (docs/model.md §9).
 
 Each field of :class:`CompressorParameters` carries its SI unit, default (docs/model.md §9), allowed range and a
 description in its metadata. The simulation validates against these declarations, and the FMU and the README's
@@ -263,6 +263,10 @@ def _validate_relations(params: CompressorParameters) -> None:
     if p.friction_model == "ambrosio" and p.friction_velocity >= p.friction_velocity_full:
         _reject("friction_velocity_full", p.friction_velocity_full,
                 f"greater than friction_velocity = {p.friction_velocity:g} m/s for the ambrosio law")
+    lobe = 2 * math.pi / p.lobes
+    if p.suction_close_angle > lobe:
+        _reject("suction_close_angle", p.suction_close_angle,
+                f"<= 2 pi / lobes = {lobe:g} rad (the suction port closes inside the lobe)")
     if p.displacement_law == "harmonic_dwell":
         free = 2 * math.pi / p.lobes - p.bottom_dwell - p.top_dwell
         if free <= 0.0:

@@ -1,4 +1,4 @@
-"""`Simulation`: owns all state of one compressor run and advances it in time (docs/model.md §8.1, ARCHITECTURE "State").
+"""`Simulation`: owns all state of one compressor run and advances it in time (docs/model.md §8.1).
 
 Build it from validated parameters and a speed law, call `advance(t)` as often as needed (optionally with a new
 speed for the advance, as an FMU does once per communication step), and read `outputs`, `history`, the lobe

@@ -31,7 +31,7 @@ with event.install_recorder("numba:compile") as recorder:
     for pressure_model in ("polytropic", "ideal_gas_table", "real_gas"):
         for integrator in ("dopri5", "abm4"):
             host = H.Host($fmu)                     # unpacked into a new temporary folder
-            status = host.initialize(pressure_model=pressure_model, integrator=integrator, **H.OPERATING_POINT)
+            status = host.initialize(**{**H.OPERATING_POINT, "pressure_model": pressure_model, "integrator": integrator})
             assert status == H.OK, host.messages()
             rows[f"{pressure_model} {integrator}"] = host.run(0.0, 1e-3, 45)      # past the first revolution
             messages.append(host.messages())

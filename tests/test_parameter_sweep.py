@@ -11,6 +11,12 @@ FAST = {"lobes", "displacement_law", "stiffness_model", "friction_model", "press
         "edge_radius"}
 
 
+# Known limit (docs/model.md §7.2): a suction port too small for the displacement rate starves the trailing chamber,
+# whose gas expands into the two-phase dome, which the real-gas chambers do not model; the run stops with an error
+# naming the suction port. No a-priori criterion separates these points from running ones (docs/model.md §13.3).
+STARVED = ({"rpm": 1500.0, "suction_port_area": 1e-7}, {"rpm": 30000.0})
+
+
 def changed(point):
     return next((name for name in point if name != "rpm"), "rpm")
 
@@ -26,8 +32,18 @@ def test_point_runs_or_is_refused_by_name(point):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("point", [p for p in one_at_a_time() if p not in fast_points()],
+@pytest.mark.parametrize("point", [p for p in one_at_a_time() if p not in fast_points() and p not in STARVED],
                          ids=lambda p: "-".join(f"{k}={v}" for k, v in p.items()))
 def test_every_declared_end_runs_or_is_refused_by_name(point):
     result = run_point(point, budget=600.0)
     assert result["outcome"] in ("completed", "refused"), result["detail"]
+
+
+@pytest.mark.parametrize("point", STARVED, ids=lambda p: "-".join(f"{k}={v}" for k, v in p.items()))
+def test_a_starved_suction_stops_with_an_error_naming_the_port(point):
+    """The known limit above: the run stops (it does not return wrong numbers), at the first lobe, and the error
+    names the suction port, its area and the speed."""
+    assert point in one_at_a_time()                 # the limit is met inside the declared ranges
+    result = run_point(point, budget=600.0)
+    assert result["outcome"] == "failed"
+    assert "suction_port_area" in result["detail"] and "starves the chamber" in result["detail"], result["detail"]

@@ -140,6 +140,11 @@ def test_out_of_range_values_rejected():
     assert_rejected("stroke", 0.0)
     assert_rejected("friction_velocity_full", 1e-4, friction_model="ambrosio", friction_velocity=1e-3,
                     friction_velocity_full=1e-4)
+    # the suction port must close inside the lobe, 2 pi / z = 0.628 rad at z = 10 (the sweep found it refused
+    # later, by the pressure table, without the parameter's name)
+    message = assert_rejected("suction_close_angle", 0.8, lobes=10, suction_close_angle=0.8)
+    assert "0.628319 rad" in message, message
+    CompressorParameters(lobes=10, suction_close_angle=2 * math.pi / 10)
 
 
 def test_replace_validates():

@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .kernel import kernel
+from .kernel import kernel, kernel_record
 from .control_volume import chamber_derivatives, internal_energy_temperature, port_coverage
 from .leakage import leakage_path_open, real_gas_leakage_flow
 from .property_table import STATUS_OK, table_properties, table_state
@@ -69,7 +69,7 @@ def chamber_constants(**values) -> np.ndarray:
     constants = np.zeros(1, dtype=CONSTANTS_DTYPE)
     for name, value in values.items():
         constants[name] = float(value)
-    return constants
+    return kernel_record(constants)
 
 
 class ChamberInputs(NamedTuple):

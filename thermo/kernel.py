@@ -13,7 +13,8 @@
 """
 from __future__ import annotations
 
-from numba import njit
+import numpy as np
+from numba import config, njit
 from numba.core.dispatcher import Dispatcher
 
 from .compile_cache import KernelCache
@@ -31,6 +32,12 @@ def kernel(function=None, *, allocates: bool = False):
             dispatcher._cache = KernelCache(dispatcher.py_func)   # what cache=True sets (Dispatcher.enable_caching)
         return dispatcher
     return compiled if function is None else compiled(function)
+
+
+def kernel_record(array: np.ndarray) -> np.ndarray:
+    """A one-row structured array of constants as the kernels read it (`m = array[0]; m.stroke`): numba reads the
+    fields of the plain array by name; pure Python (NUMBA_DISABLE_JIT=1) only those of a record array."""
+    return array.view(np.recarray) if config.DISABLE_JIT else array
 
 
 @kernel

@@ -55,7 +55,7 @@ def _check_grid(phase, volume, suction_close_phase):
               f"uniform step {mean_step!r} (relative tolerance 1e-6)")
     volume = _check_array("volume", volume, phase.size, "> 0 m^3", lambda a: a > 0.0)
     close = _check_scalar("suction_close_phase", suction_close_phase,
-                          f"[{phase[0]!r}, {phase[-1]!r}] rad (inside the phase grid)",
+                          f"[{float(phase[0])!r}, {float(phase[-1])!r}] rad (inside the phase grid)",
                           lambda x: phase[0] <= x <= phase[-1])
     return phase, volume, close
 

@@ -1,7 +1,7 @@
 """Real-gas property table in (T, ln rho) for the chamber equations of docs/model.md §7.3, evaluated inside numba.
 
 The chamber equations need p, h, c_v and (dp/dT)_rho at the chamber state (T, rho) several times per step; CoolProp
-costs about 1.5 us per state from Python and cannot be called from nopython code (PERFORMANCE.md). This module
+costs about 1.5 us per state from Python and cannot be called from nopython code (benchmarks/bench_properties.py). This module
 tabulates the four properties once per fluid and operating envelope (`envelope_for`) and interpolates them in numba
 (`table_properties`, `table_status`, `table_ideal_gas_exponent`).
 
