@@ -71,14 +71,15 @@ def core_worker(args: dict) -> dict:
     h, stop = args["step"], args["stop_time"]
 
     def one_run(end: float):
-        sim = Simulation(params, constant_speed(RPM), keep_history=False)
+        # from the FMU's start (initial_rotor_angle = 0), so the stepped core integrates exactly what the FMU does
+        sim = Simulation(params, constant_speed(RPM), keep_history=False, initial_angle=0.0)
         start = time.perf_counter()
         if h is None:
             sim.advance(end)
-        else:                                            # as fmu_src.compressor: speed held, per-step torque
+        else:                                            # as fmu_src.compressor: speed input, per-step torque
             for k in range(1, round(end / h) + 1):
                 work, angle = sim.state[WORK_IN], sim.rotor_angle
-                sim.advance(k * h, speed_rpm=RPM, interpolate=False)
+                sim.advance(k * h, speed_rpm=RPM, interpolate=True)
                 (sim.state[WORK_IN] - work) / (sim.rotor_angle - angle)
         return time.perf_counter() - start, int(sim.counters[0])
 

@@ -10,6 +10,9 @@ every output), which asks numba for every kernel and signature an FMU run calls 
 * the second, `--into FOLDER`, must load all of them from there (it fails naming any kernel it had to compile),
   then copies the files of the kernels it loaded into FOLDER, laid out as the cache folder, and writes the stamp.
   Only the kernels called from Python are shipped: a loaded kernel contains the code of the kernels it calls.
+  It also copies the fluid data its runs built from CoolProp (the default fluid's property and nozzle tables and
+  operating point, thermo.disk_cache) into `shipped_data/` beside FOLDER, which a first run reads instead of
+  building them.
 """
 from __future__ import annotations
 
@@ -25,7 +28,7 @@ from pythonfmu.enums import Fmi2Status
 from pythonfmu.variables import Integer, Real
 
 from rotary_vane.mechanics.parameters import INTEGRATORS, PRESSURE_MODELS
-from rotary_vane.thermo import compile_cache
+from rotary_vane.thermo import compile_cache, disk_cache
 
 from .compressor import CompressorSlave
 from .slave import INITIALIZED
@@ -80,6 +83,11 @@ def ship(into: Path) -> None:
     cpu, requires = compile_cache.portable_cpu(stamp["platform"])
     stamp.update(cpu=cpu, cpu_features="", cpu_requires=list(requires))
     (into / compile_cache.STAMP_FILE).write_text(json.dumps(stamp, indent=1) + "\n", encoding="utf-8")
+    data = into.parent / disk_cache.SHIPPED_DATA.name
+    data.mkdir()
+    for path in disk_cache.property_cache_dir().iterdir():
+        if path.is_file():
+            shutil.copyfile(path, data / path.name)
 
 
 def main(argv=None) -> int:

@@ -83,9 +83,28 @@ def fallback(fmu, tmp_path_factory) -> dict:
 def test_an_fmu_on_a_machine_with_an_empty_cache_runs_the_kernels_it_ships(shipped):
     assert shipped["compiled"] == [], f"numba compiled {shipped['compiled']}"
     assert shipped["messages"] == [[]] * 6, shipped["messages"]
-    kernel_files = [name for name in shipped["cached"]["rotary_vane_cache"] if not name.startswith("properties/")]
-    assert kernel_files == [], f"kernels were written into the cache: {kernel_files}"
+    # nothing is written: neither kernels nor the default fluid's tables and operating point, which it ships too
+    assert shipped["cached"]["rotary_vane_cache"] == [], shipped["cached"]["rotary_vane_cache"]
     assert shipped["cached"]["xdg_cache"] == shipped["cached"]["numba_cache_dir"] == []
+
+
+def test_the_fmu_ships_the_default_fluid_data_and_a_changed_key_builds_its_own(fmu, tmp_path):
+    """The shipped property table, nozzle table and operating point are named by their keys (thermo.disk_cache):
+    a run whose key differs (another suction temperature) does not read them but builds and caches its own."""
+    with zipfile.ZipFile(fmu) as archive:
+        shipped = sorted(n.rsplit("/", 1)[1] for n in archive.namelist() if "/shipped_data/" in n)
+    assert len(shipped) == 3 and any("operating-point" in n for n in shipped) and \
+        any(n.startswith("nozzle-R134a") for n in shipped), shipped
+    env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path / "cache")})
+    H.run_host(f"""
+import fmu_helpers as H
+host = H.Host({str(fmu)!r})
+assert host.initialize(suction_temperature=288.15) == H.OK, host.messages()
+host.run(0.0, 1e-3, 5)
+H.emit({{}})
+""", env=env).check()
+    built = sorted(path.name for path in (tmp_path / "cache" / "properties").iterdir())
+    assert len(built) == 3 and not set(built) & set(shipped), (built, shipped)
 
 
 def test_kernels_stamped_for_another_numba_are_not_used_and_the_fmu_says_why(fallback):

@@ -5,6 +5,10 @@ Rules shared by both: a file is named by its content's key (`cache_path`: a hash
 the content depends on), written atomically (`atomic_write`), and a file that cannot be read or carries another key
 is rebuilt with a warning, never trusted; an unwritable folder costs speed, not the run (`load_or_build`). Nothing
 is unpickled.
+
+An FMU ships the files of its default operating point (fmu_src.ship_kernels) in `shipped_data/` next to the
+bundled packages: a file the cache folder lacks is read from there, read-only, when one of the same name (the same
+key) is shipped, so a machine that never ran the FMU does not build the default fluid's tables from CoolProp.
 """
 from __future__ import annotations
 
@@ -15,6 +19,8 @@ import warnings
 from pathlib import Path
 
 from .compile_cache import CACHE_ENVIRONMENT_VARIABLE
+
+SHIPPED_DATA = Path(__file__).resolve().parent.parent / "shipped_data"      # in an FMU: beside the packages
 
 
 def property_cache_dir() -> Path:
@@ -56,12 +62,14 @@ def load_or_build(path: Path, load, build, write, what: str):
     """`load(path)` if the file exists and loads; else `value = build()`, saved by `atomic_write(path,
     lambda stream: write(stream, value))`, and returned. A file `load` refuses (any exception) is rebuilt with a
     RuntimeWarning; a folder that cannot be written warns and the value is used uncached."""
-    if path.exists():
-        try:
-            return load(path)
-        except Exception as error:              # any damage: the cache is disposable, rebuild it
-            warnings.warn(f"{what} cache {path} is unreadable ({type(error).__name__}: {error}); rebuilding it",
-                          RuntimeWarning, stacklevel=3)
+    shipped = SHIPPED_DATA / path.name
+    for candidate in (path, shipped) if path != shipped else (path,):
+        if candidate.is_file():
+            try:
+                return load(candidate)
+            except Exception as error:          # any damage: the cache is disposable, rebuild it
+                warnings.warn(f"{what} cache {candidate} is unreadable ({type(error).__name__}: {error}); "
+                              f"rebuilding it", RuntimeWarning, stacklevel=3)
     value = build()
     try:
         atomic_write(path, lambda stream: write(stream, value))
