@@ -7,6 +7,9 @@ Points (all from the declarations in mechanics.parameters, so a new parameter is
   a few fluids, and the shaft speed at its ends, the others at their defaults;
 * `--random N` points with every parameter drawn at once (fixed seed): numbers uniform over their range, or
   log-uniform where the range spans more than two decades and starts above 0; choices uniform; speed log-uniform.
+  Independent draws mostly break a relation between parameters (discharge above suction pressure, a vane that
+  fits its slot, ...), so candidates are drawn until N pass validation; the refused candidates are counted by the
+  parameter their error names (a refusal that names none is kept as a point, and fails).
 
 Each point builds `CompressorParameters` (a ValueError there is a *refusal*: its message must name a parameter),
 starts on a valley and runs one revolution at constant speed (at 0 rpm: 10 ms at standstill), then checks every
@@ -31,7 +34,6 @@ import numpy as np
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from rotary_vane.mechanics.outputs import OUTPUT_NAMES, REAL_GAS_COLUMNS
-from rotary_vane.mechanics.parameters import is_numeric
 from rotary_vane.mechanics.performance import revolutions
 
 MAX_SPEED_RPM = 30000.0              # the FMU's declared shaft_speed maximum (fmu_src.compressor.MAX_SHAFT_SPEED)
@@ -78,6 +80,26 @@ def random_points(count: int, seed: int = SEED) -> list[dict]:
                 point[name] = float(rng.uniform(meta["min"], meta["max"]))
         points.append(point)
     return points
+
+
+def valid_random_points(count: int, seed: int = SEED) -> tuple[list[dict], dict]:
+    """`count` random points that pass validation, and the refusals of the candidates drawn before them, by the
+    parameter named (module docstring)."""
+    points, refusals, batch = [], {}, 0
+    while len(points) < count:
+        for point in random_points(count, seed + batch):
+            try:
+                CompressorParameters(**{k: v for k, v in point.items() if k != "rpm"})
+            except ValueError as error:
+                name = next((n for n, _, _ in declarations() if f"'{n}'" in str(error)), None)
+                if name is not None:
+                    refusals[name] = refusals.get(name, 0) + 1
+                    continue
+            points.append(point)
+            if len(points) == count:
+                break
+        batch += 1
+    return points, refusals
 
 
 def run_point(point: dict, budget: float = 120.0) -> dict:
@@ -157,7 +179,11 @@ def main(argv=None) -> int:
     parser.add_argument("--csv", type=Path, help="write one row per point")
     args = parser.parse_args(argv)
     Simulation(CompressorParameters(pressure_model="ideal_gas_table")).advance(1e-5)     # compile once
-    points = one_at_a_time() + random_points(args.random, args.seed)
+    drawn, random_refusals = valid_random_points(args.random, args.seed)
+    print(f"random points: {len(drawn) + sum(random_refusals.values())} drawn, {sum(random_refusals.values())} "
+          f"refused at validation by the parameter named (" + ", ".join(f"{k} {v}" for k, v in sorted(
+              random_refusals.items(), key=lambda item: -item[1])) + f"), {len(drawn)} run")
+    points = one_at_a_time() + drawn
     started = time.perf_counter()
     results = sweep(points, args.workers, args.budget)
     tally = {outcome: sum(r["outcome"] == outcome for r in results) for outcome in OUTCOMES}

@@ -154,8 +154,7 @@ def test_monotone_in_gap_height_and_pressure_ratio(ideal_r134a, nozzle_table):
         assert ideal[-1] == 0.0 and real[-1] == 0.0
 
 
-def test_signed_friction_flow_symmetry_band_and_closed_gap(ideal_r134a, nozzle_table):
-    gas = ideal_r134a
+def test_signed_friction_flow_symmetry_band_and_closed_gap(nozzle_table):
     fluid, table = nozzle_table
     arguments = (LAW_FRICTION_CORRECTED, 1.0, 20e-6, 1.45e-3, AXIAL_LENGTH)
     forward = signed_leakage_flow(*arguments, 1.0e6, 330.0, 0.5e6, 300.0, 1.11, 81.5, 1.3e-5, 1.2e-5)

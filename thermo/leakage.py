@@ -276,7 +276,7 @@ def valley_seal_radius(rotor_radius, tip_radius, stator_clearance, displacement_
     offset = tip_radius + stator_clearance
     if not 1.0 + offset * pitch_curvature > 0.0:
         _fail("displacement_curvature", displacement_curvature,
-              f"a value for which the stator is regular at the valley (1 + d kappa_C > 0, docs/model.md §2.5)")
+              "a value for which the stator is regular at the valley (1 + d kappa_C > 0, docs/model.md §2.5)")
     stator_curvature = pitch_curvature / (1.0 + offset * pitch_curvature)
     opening = 1.0 / rotor_radius - stator_curvature
     if not opening > 0.0:

@@ -104,7 +104,7 @@ def geometry_figure():
 
 def contact_regions_figure():
     """Schematic in the rotor frame (slot vertical), clearance and tilt exaggerated."""
-    t, rho, r_e = 4.0, 2.0, 0.0
+    t, rho = 4.0, 2.0
     clearance = 1.2                                   # drawn, not to scale
     half_w = (t + clearance) / 2
     tilt = math.radians(-6.0)
