@@ -30,7 +30,7 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
-from report import heading, table  # noqa: E402  (benchmarks/ is the script's folder)
+from report import best_of, heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 from scipy.optimize import minimize_scalar  # noqa: E402
 
 from rotary_vane.thermo.control_volume import signed_nozzle_flow  # noqa: E402
@@ -107,16 +107,6 @@ def bare_loop(temperatures, densities, pressures, downstream):
     for k in range(temperatures.size):
         total += temperatures[k] * densities[k] + pressures[k] * downstream[k]
     return total
-
-
-def best_of(function, *args, repeats=5):
-    """Smallest wall time of `repeats` calls (the machine is shared: the minimum is the least disturbed)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function(*args)
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def chamber_path(fluid: Fluid, calls: int, rng):

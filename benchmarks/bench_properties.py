@@ -26,7 +26,7 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
-from report import heading, table  # noqa: E402  (benchmarks/ is the script's folder)
+from report import best_of, heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 
 from rotary_vane.thermo.fluid import Fluid, coolprop, typical_operating_point  # noqa: E402
 from rotary_vane.thermo.property_table import (PROPERTY_NAMES, STATUS_INACCURATE_CELL, STATUS_OK,  # noqa: E402
@@ -67,16 +67,6 @@ def bare_loop(temperatures, densities):
     for k in range(temperatures.size):
         total += temperatures[k] * densities[k]
     return total
-
-
-def best_of(function, *args, repeats=5):
-    """Smallest wall time of `repeats` calls (the machine is shared: the minimum is the least disturbed)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function(*args)
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def chamber_path(fluid: Fluid, calls: int):

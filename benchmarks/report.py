@@ -1,4 +1,5 @@
-"""Printing helpers shared by the benchmarks: aligned tables and section headings."""
+"""Helpers shared by the benchmarks: aligned tables, section headings, least-disturbed timing."""
+import time
 
 
 def table(headers: list[str], rows: list[list[str]]) -> str:
@@ -12,3 +13,13 @@ def table(headers: list[str], rows: list[list[str]]) -> str:
 
 def heading(text: str) -> None:
     print(f"\n{text}\n{'=' * len(text)}")
+
+
+def best_of(function, *args, repeats=5):
+    """Smallest wall time of `repeats` calls (the machine is shared: the minimum is the least disturbed)."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function(*args)
+        times.append(time.perf_counter() - start)
+    return min(times)
