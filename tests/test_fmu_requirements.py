@@ -58,14 +58,18 @@ def test_requirements_txt_alone_runs_the_fmu_with_every_pressure_model(built_fmu
     listed = subprocess.run([python, "-m", "pip", "list", "--format=json"], capture_output=True, text=True,
                             check=True, timeout=120)
     installed = {entry["name"].lower() for entry in json.loads(listed.stdout)}
-    assert "rotary-vane-compressor" not in installed and "scipy" not in installed, installed
+    assert "rotary-vane-compressor" not in installed, installed
+    # scipy is required since the real-gas nozzle table is built at run time (brentq) when it is not cached
+    assert ("scipy" in installed) == ("scipy" in names), (names, installed)
 
     env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path / "empty-kernel-cache")})
     done = subprocess.run([python, "-c", HOST, str(fmu), str(H.TESTS_DIR), *PRESSURE_MODELS], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=1500)
     assert done.returncode == 0, done.stderr[-5000:]
     report = json.loads(done.stdout.strip().splitlines()[-1])
-    assert report["imported_after"] == [], f"the host imported {report['imported_after']}"
+    # nothing outside the requirements: not the project as installed, not matplotlib (scipy only as listed)
+    unlisted = [m for m in report["imported_after"] if m.lower() not in names]
+    assert unlisted == [], f"the host imported {unlisted}, which the requirements do not list"
     for model in PRESSURE_MODELS:
         run = report[model]
         assert run["end"] == pytest.approx(0.05), (model, run)
