@@ -23,14 +23,13 @@ import argparse
 import math
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
-from report import best_of, heading, table  # noqa: E402  (benchmarks/ is the script's folder)
+from report import best_of, build_and_load_times, heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 from scipy.optimize import minimize_scalar  # noqa: E402
 
 from rotary_vane.thermo.control_volume import signed_nozzle_flow  # noqa: E402
@@ -235,12 +234,7 @@ def refused_share(fluid: Fluid, envelope, nozzle_table, cache_dir: Path, rng, co
 def fluid_figures(name: str, cache_dir: Path, samples: int, rng) -> dict:
     fluid = Fluid(name)
     envelope = envelope_for(fluid, *typical_operating_point(fluid))
-    start = time.perf_counter()
-    nozzle_table = nozzle_table_for(fluid, envelope, cache_dir=cache_dir)
-    build = time.perf_counter() - start
-    start = time.perf_counter()
-    nozzle_table_for(fluid, envelope, cache_dir=cache_dir)
-    load = time.perf_counter() - start
+    nozzle_table, build, load = build_and_load_times(nozzle_table_for, fluid, envelope, cache_dir=cache_dir)
     path = nozzle_table_path(fluid, envelope, cache_dir=cache_dir)
     memory = sum(v.nbytes for v in nozzle_table if isinstance(v, np.ndarray))
     return {"name": name, "envelope": envelope, "build": build, "load": load, "file": path.stat().st_size,

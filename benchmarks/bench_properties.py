@@ -26,7 +26,7 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
-from report import best_of, heading, table  # noqa: E402  (benchmarks/ is the script's folder)
+from report import best_of, build_and_load_times, heading, table  # noqa: E402  (benchmarks/ is the script's folder)
 
 from rotary_vane.thermo.fluid import Fluid, coolprop, typical_operating_point  # noqa: E402
 from rotary_vane.thermo.property_table import (PROPERTY_NAMES, STATUS_INACCURATE_CELL, STATUS_OK,  # noqa: E402
@@ -171,12 +171,7 @@ def refused_gas_cells(property_table) -> int:
 def fluid_figures(name: str, cache_dir: Path, samples: int, rng) -> dict:
     fluid = Fluid(name)
     envelope = envelope_for(fluid, *typical_operating_point(fluid))
-    start = time.perf_counter()
-    property_table = property_table_for(fluid, envelope, cache_dir=cache_dir)
-    build = time.perf_counter() - start
-    start = time.perf_counter()
-    property_table_for(fluid, envelope, cache_dir=cache_dir)
-    load = time.perf_counter() - start
+    property_table, build, load = build_and_load_times(property_table_for, fluid, envelope, cache_dir=cache_dir)
     path = property_table_path(fluid, envelope, cache_dir=cache_dir)
     memory = sum(v.nbytes for v in property_table if isinstance(v, np.ndarray))
     t = rng.uniform(envelope.temperature_min, envelope.temperature_max, samples)

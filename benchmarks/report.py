@@ -23,3 +23,13 @@ def best_of(function, *args, repeats=5):
         function(*args)
         times.append(time.perf_counter() - start)
     return min(times)
+
+
+def build_and_load_times(table_for, *args, **kwargs):
+    """(table, build time, load time): `table_for(*args, **kwargs)` into an empty cache, then again from it."""
+    start = time.perf_counter()
+    table = table_for(*args, **kwargs)
+    build = time.perf_counter() - start
+    start = time.perf_counter()
+    table_for(*args, **kwargs)
+    return table, build, time.perf_counter() - start

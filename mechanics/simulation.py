@@ -222,13 +222,14 @@ class Simulation:
         omega_target = check_speed("speed_rpm", speed_rpm)
         law = self.speed_law
         theta, omega, _ = rotor_motion(self.time, law)
-        if interpolate and end_time > self.time:
+        if interpolate and end_time > self.time and omega_target != omega:
             segment = (LINEAR, self.time, theta, omega, omega_target, end_time - self.time)
         else:
             segment = (CONSTANT, self.time, theta, omega_target, omega_target, 0.0)
             # a held speed jumps: the motor delivers the rotor's kinetic energy 1/2 J2 (w2^2 - w1^2) at once
             self.state[WORK_IN] += 0.5 * self.params.rotor_inertia * (omega_target ** 2 - omega ** 2)
-        if interpolate or (segment[0], segment[3], segment[4]) != (law[0], law[3], law[4]):
+        # a new segment is a non-smooth point (restart ABM4); an unchanged speed keeps the law and the history
+        if segment[0] == LINEAR or (segment[0], segment[3], segment[4]) != (law[0], law[3], law[4]):
             law[:] = segment                       # in place: the kernel's argument stays the same array
             self.control[CONTROL_HISTORY] = 0
 

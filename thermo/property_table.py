@@ -506,6 +506,24 @@ def property_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMP
 # ----------------------------------------------------------------------------------------------------------
 # messages
 
+def envelope_status_text(status, where, envelope, table_name, user, fluid, temperature, density) -> str | None:
+    """The sentence for a state outside a table's envelope (temperature or density range, near the dome), shared
+    by the property table and the nozzle table (thermo.real_gas_nozzle); None for any other status."""
+    if status in (STATUS_TEMPERATURE_BELOW_TABLE, STATUS_TEMPERATURE_ABOVE_TABLE):
+        side = "below" if status == STATUS_TEMPERATURE_BELOW_TABLE else "above"
+        return (f"{where}: the temperature is {side} the {table_name}'s range [{envelope.temperature_min:.6g}, "
+                f"{envelope.temperature_max:.6g}] K; build the table over a wider Envelope")
+    if status in (STATUS_DENSITY_BELOW_TABLE, STATUS_DENSITY_ABOVE_TABLE):
+        side = "below" if status == STATUS_DENSITY_BELOW_TABLE else "above"
+        return (f"{where}: the density is {side} the {table_name}'s range [{envelope.density_min:.6g}, "
+                f"{envelope.density_max:.6g}] kg/m^3; build the table over a wider Envelope")
+    if status == STATUS_NEAR_SATURATION:
+        detail = _saturation_detail(fluid, float(temperature), float(density)) if fluid is not None else ""
+        return (f"{where} is inside the two-phase dome or less than {envelope.superheat_margin:g} K of superheat "
+                f"away from it{detail}; {user} needs a single-phase gas (docs/model.md §7.3)")
+    return None
+
+
 def describe_status(status, temperature, density, table: PropertyTable, fluid: Fluid | None = None,
                     state="state") -> str:
     """A readable sentence for a status code of `table_properties`: which state, why, and what to do.
@@ -519,20 +537,10 @@ def describe_status(status, temperature, density, table: PropertyTable, fluid: F
         return f"{where} is inside the property table"
     if status == STATUS_INVALID_STATE:
         return f"{where} is not a physical state: temperature and density must be positive numbers"
-    if status in (STATUS_TEMPERATURE_BELOW_TABLE, STATUS_TEMPERATURE_ABOVE_TABLE):
-        side = "below" if status == STATUS_TEMPERATURE_BELOW_TABLE else "above"
-        return (f"{where}: the temperature is {side} the property table's range [{envelope.temperature_min:.6g}, "
-                f"{envelope.temperature_max:.6g}] K; build the table over a wider Envelope")
-    if status in (STATUS_DENSITY_BELOW_TABLE, STATUS_DENSITY_ABOVE_TABLE):
-        side = "below" if status == STATUS_DENSITY_BELOW_TABLE else "above"
-        return (f"{where}: the density is {side} the property table's range [{envelope.density_min:.6g}, "
-                f"{envelope.density_max:.6g}] kg/m^3; build the table over a wider Envelope")
-    if status == STATUS_NEAR_SATURATION:
-        detail = ""
-        if fluid is not None:
-            detail = _saturation_detail(fluid, float(temperature), float(density))
-        return (f"{where} is inside the two-phase dome or less than {envelope.superheat_margin:g} K of superheat "
-                f"away from it{detail}; the model needs a single-phase gas (docs/model.md §7.3)")
+    shared = envelope_status_text(status, where, envelope, "property table", "the model", fluid, temperature,
+                                  density)
+    if shared is not None:
+        return shared
     if status == STATUS_INACCURATE_CELL:
         return (f"{where} lies in a table cell that missed its accuracy check against HEOS (relative tolerances "
                 f"p, h, c_v, (dp/dT)_rho = {', '.join(f'{t:g}' for t in CELL_TOLERANCE)}), typically near the "

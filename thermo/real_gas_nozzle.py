@@ -66,7 +66,7 @@ from .property_table import (DEFAULT_TEMPERATURE_NODES as PROPERTY_TEMPERATURE_N
                              STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
                              STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK, STATUS_TEMPERATURE_ABOVE_TABLE,
                              STATUS_TEMPERATURE_BELOW_TABLE, Envelope, _check_count, _check_envelope,
-                             _checked_envelope, _saturation_detail, dome_log_density_limit)
+                             _checked_envelope, dome_log_density_limit, envelope_status_text)
 
 FORMAT_VERSION = 1
 DEFAULT_TEMPERATURE_NODES = 64
@@ -604,18 +604,10 @@ def describe_nozzle_status(status, temperature, density, table: NozzleTable, flu
     if status == STATUS_INVALID_STATE:
         return (f"{where}: not a valid nozzle inlet: temperature, density and pressure must be positive numbers "
                 "and the downstream pressure a number")
-    if status == STATUS_NEAR_SATURATION:
-        detail = _saturation_detail(fluid, float(temperature), float(density)) if fluid is not None else ""
-        return (f"{where} is inside the two-phase dome or less than {envelope.superheat_margin:g} K of superheat "
-                f"away from it{detail}; the nozzle needs a single-phase gas upstream (docs/model.md §7.3)")
-    if status in (STATUS_TEMPERATURE_BELOW_TABLE, STATUS_TEMPERATURE_ABOVE_TABLE):
-        side = "below" if status == STATUS_TEMPERATURE_BELOW_TABLE else "above"
-        return (f"{where}: the temperature is {side} the nozzle table's range [{envelope.temperature_min:.6g}, "
-                f"{envelope.temperature_max:.6g}] K; build the table over a wider Envelope")
-    if status in (STATUS_DENSITY_BELOW_TABLE, STATUS_DENSITY_ABOVE_TABLE):
-        side = "below" if status == STATUS_DENSITY_BELOW_TABLE else "above"
-        return (f"{where}: the density is {side} the nozzle table's range [{envelope.density_min:.6g}, "
-                f"{envelope.density_max:.6g}] kg/m^3; build the table over a wider Envelope")
+    shared = envelope_status_text(status, where, envelope, "nozzle table", "the nozzle's inlet", fluid,
+                                  temperature, density)
+    if shared is not None:
+        return shared
     if status == STATUS_OK:
         return f"{where} is inside the nozzle table"
     return f"{where}: unknown nozzle-table status {status!r}"
