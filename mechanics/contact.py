@@ -10,7 +10,7 @@ import math
 from typing import NamedTuple
 
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 from .geometry import closest_pitch_frame
 

@@ -9,7 +9,7 @@ import math
 from typing import NamedTuple
 
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 from .contact import NONE
 from .contact_laws import elastic_force, friction_coefficient_effective, normal_force

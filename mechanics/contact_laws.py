@@ -7,7 +7,7 @@ Newton iteration with bisection fallback, and beyond its validity limit it conti
 excess is reported by the caller, docs/model.md §5.2).
 """
 import math
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 
 HERTZ_POINT, JOHNSON_LINE = 0, 1

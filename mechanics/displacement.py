@@ -6,7 +6,7 @@ stroke h at mid-lobe. Derivatives are with respect to the rotor angle theta.
 import math
 
 import numpy as np
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = 0, 1, 2, 3
 LAW_CODES = {"harmonic": HARMONIC, "cycloidal": CYCLOIDAL, "harmonic_dwell": HARMONIC_DWELL,

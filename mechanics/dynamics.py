@@ -12,12 +12,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import kernel
-from rotary_vane.thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
+from ..thermo.kernel import kernel
+from ..thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
                                              ChamberInputs, chamber_energy, chamber_rates)
-from rotary_vane.thermo.leakage import parabolic_flank_length, tapered_gap_length
-from rotary_vane.thermo.property_table import PropertyTable
-from rotary_vane.thermo.real_gas_nozzle import NozzleTable
+from ..thermo.leakage import parabolic_flank_length, tapered_gap_length
+from ..thermo.property_table import PropertyTable
+from ..thermo.real_gas_nozzle import NozzleTable
 
 from .chamber_geometry import SectorTable, chamber_geometry
 from .contact import slot_contacts, tip_contact

@@ -17,10 +17,10 @@ import math
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import copy_values, kernel
-from rotary_vane.thermo.chamber_model import gas_tolerance, switch_chambers
-from rotary_vane.thermo.property_table import table_from_arrays
-from rotary_vane.thermo.real_gas_nozzle import nozzle_table_from_arrays
+from ..thermo.kernel import copy_values, kernel
+from ..thermo.chamber_model import gas_tolerance, switch_chambers
+from ..thermo.property_table import table_from_arrays
+from ..thermo.real_gas_nozzle import nozzle_table_from_arrays
 
 from .chamber_geometry import SectorTable
 from .dynamics import KernelContext, chamber_inputs_at, evaluate

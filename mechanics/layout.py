@@ -5,7 +5,7 @@
   under real gas the chamber model's state block follows (thermo.chamber_model, from GAS_BLOCK on);
 - memory: non-state values updated only after accepted steps (warm start, lobe, impact velocities, mode).
 """
-from rotary_vane.thermo.chamber_model import GAS_STATE_SIZE
+from ..thermo.chamber_model import GAS_STATE_SIZE
 
 from .regions import MEMORY_SLOTS
 

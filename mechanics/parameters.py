@@ -13,9 +13,9 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
-from rotary_vane.thermo.fluid import UnknownFluidError
-from rotary_vane.thermo.leakage import LEAKAGE_LAWS
-from rotary_vane.thermo.operating_point import operating_point_for
+from ..thermo.fluid import UnknownFluidError
+from ..thermo.leakage import LEAKAGE_LAWS
+from ..thermo.operating_point import operating_point_for
 
 from .geometry import check_stator_regularity
 
