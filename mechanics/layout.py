@@ -1,7 +1,8 @@
 """Index layout of the state and memory arrays the time loop shares with Python, and its status codes
 (docs/model.md §8.1). The output row's layout is in mechanics.outputs.
 
-- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp (docs/model.md §6.4);
+- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp and the work of the
+  elastic contact forces W_el (docs/model.md §6.4);
   under real gas the chamber model's state block follows (thermo.chamber_model, from GAS_BLOCK on);
 - memory: non-state values updated only after accepted steps (warm start, lobe, impact velocities, mode).
 """
@@ -10,8 +11,8 @@ from rotary_vane.thermo.chamber_model import GAS_STATE_SIZE
 from .regions import MEMORY_SLOTS
 
 # state vector
-X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING = range(10)
-VANE_STATE_SIZE = 10
+X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING, WORK_ELASTIC = range(11)
+VANE_STATE_SIZE = 11
 GAS_BLOCK = VANE_STATE_SIZE                      # first index of the chamber states (real gas)
 REAL_GAS_STATE_SIZE = VANE_STATE_SIZE + GAS_STATE_SIZE
 

@@ -99,6 +99,8 @@ STEP_OUTPUTS = (
     Output("work_out", "J", "cumulative gas work on the vane and the rotor W_out"),
     Output("work_friction", "J", "cumulative friction work"),
     Output("work_damping", "J", "cumulative contact damping work"),
+    Output("work_elastic", "J", "cumulative work of the elastic contact forces, integral of sum F_el delta_dot "
+                                "(docs/model.md §6.4)"),
     Output("leading_volume", "m3", "leading-chamber volume with the dead volume (docs/model.md §7.2)"),
     Output("trailing_volume", "m3", "trailing-chamber volume with the dead volume (docs/model.md §7.2)"),
     Output("back_volume", "m3", "back-chamber volume: the slot below the vane's bottom face (docs/model.md §7.2)"),
@@ -176,8 +178,13 @@ FIGURES = (
     Figure("gap_power", "W", "mean power on the sweep of the open gaps (docs/model.md §6.4)", fmu="gap_power"),
     Figure("storage_power", "W", "change of the kinetic energy of vane and rotor and of the contact energy / "
                                  "duration"),
+    Figure("contact_switch_power", "W", "power the contact laws exchange where a stiffness changes in a closed "
+                                        "contact (a slot-mouth candidate switch, the stator curvature under the "
+                                        "tip): elastic-force work minus the change of the stored contact energy, "
+                                        "/ duration (docs/model.md §6.4)"),
     Figure("ledger_residual", "1", "energy ledger residual: (shaft work - indicated - gap - friction - damping - "
-                                   "stored) / shaft work (docs/model.md §6.4)", fmu="energy_ledger_residual"),
+                                   "stored - stiffness switches) / shaft work (docs/model.md §6.4)",
+           fmu="energy_ledger_residual"),
     Figure("driving_torque", "N.m", "mean driving torque: shaft work / angle turned"),
     Figure("stator_torque", "N.m", "time mean of the stator reaction moment"),
     Figure("gap_torque", "N.m", "time mean of the gap moment"),
