@@ -1,4 +1,4 @@
-"""Contact forces of the six regions on the vane, and their reactions on the rotor and the stator
+"""Contact forces of the contact regions (mechanics.regions) on the vane, and their reactions on the rotor and the stator
 (docs/model.md §5.1-§5.4).
 
 For each region in contact: the elastic force and its hysteresis damping along n, regularised friction against the
@@ -11,11 +11,11 @@ from typing import NamedTuple
 
 from rotary_vane.thermo.kernel import kernel
 
-from .contact import NONE
+from .contact import region_candidate
 from .contact_laws import elastic_force, friction_coefficient_effective, normal_force
 from .layout import MEM_ONSET_VELOCITY
 from .outputs import O
-from .regions import REGION_BODY, REGION_COUNT, REGION_MEMORY_SLOT, ROTOR
+from .regions import REGION_BODY, REGION_COUNT, REGION_DETECTOR, REGION_MEMORY_SLOT, REGION_SIDE, ROTOR
 
 
 class ContactLoads(NamedTuple):
@@ -42,23 +42,6 @@ class ContactLoads(NamedTuple):
 
 
 @kernel
-def region_candidate(region, slots, tip, tip_region):
-    """The candidate of `region` (0-based): c1-c4 from the slot detectors, c5 or c6 from the tip detector (the
-    one on the side of the apex where the contact point lies), none for the other tip region."""
-    if region == 0:
-        return slots.mouth_leading
-    if region == 1:
-        return slots.mouth_trailing
-    if region == 2:
-        return slots.bottom_leading
-    if region == 3:
-        return slots.bottom_trailing
-    if region == tip_region:
-        return tip.candidate
-    return NONE
-
-
-@kernel
 def contact_loads(pose, slots, tip, memory, m, out):
     """Forces of all regions (docs/model.md §5); writes normal_force, friction_force, penetration and
     penetration_rate of each region into the output row `out`.
@@ -72,9 +55,8 @@ def contact_loads(pose, slots, tip, memory, m, out):
     stator_fx = stator_fy = stator_moment = 0.0
     friction_power = damping_power = elastic_power = elastic_energy = law_excess = 0.0
     mode = 0
-    tip_region = 4 if tip.sin_contact_angle > 0.0 else 5
     for region in range(REGION_COUNT):
-        contact = region_candidate(region, slots, tip, tip_region)
+        contact = region_candidate(REGION_DETECTOR[region], REGION_SIDE[region], slots, tip, pose, m)
         out[O.normal_force + region] = 0.0
         out[O.friction_force + region] = 0.0
         if contact.penetration == -math.inf:      # no valid candidate in this region: not applicable

@@ -25,7 +25,7 @@ from .contact_forces import contact_loads
 from .gas_loads import combine, gap_moment, gas_load_basis, slot_side
 from .kinematics import pose_of, reported_kinematics, vane_pose
 from .layout import (ANGULAR_VELOCITY, ANGLE, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT,
-                     MEM_LOBE_START, TIP_ON_FLAT_FACE, VANE_BOTTOMED, VX, VY, WORK_DAMPING, WORK_ELASTIC, WORK_FRICTION,
+                     MEM_LOBE_START, TIP_ON_FLAT_FACE, VX, VY, WORK_DAMPING, WORK_ELASTIC, WORK_FRICTION,
                      WORK_IN, WORK_OUT, X, Y)
 from .machine import REAL_GAS_MODEL
 from .outputs import O, OUTPUT_NAMES, REAL_GAS_COLUMNS
@@ -217,7 +217,9 @@ def report_chambers(out, y, inputs, flows, leading, trailing, c, table):
 
 @kernel
 def pose_stages(t, y, ctx, memory):
-    """The pressure-independent stages of an evaluation: pose, contact candidates, slot sides, unit gas loads."""
+    """The pressure-independent stages of an evaluation: pose, the slot and tip candidates (the features the regions
+    of mechanics.regions and the gas loads share; contact_loads builds the region candidates from them), slot sides,
+    unit gas loads."""
     m = ctx.machine[0]
     pose = vane_pose(t, y, ctx.law, m)
     slots = slot_contacts(pose, m)
@@ -256,8 +258,6 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     status = 0
     if tip.cos_contact_angle < 0.0:
         status = TIP_ON_FLAT_FACE
-    if min(slots.bottom_leading.radius, slots.bottom_trailing.radius) <= m.slot_bottom_radius:
-        status = VANE_BOTTOMED
     contacts = contact_loads(pose, slots, tip, memory, m, out)
     real_gas = m.pressure_model == REAL_GAS_MODEL
     if real_gas or report:

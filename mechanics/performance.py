@@ -13,7 +13,7 @@ import numpy as np
 
 from .modes import MODE_COUNT, distinct_modes
 from .outputs import O, OUTPUT_SIZE
-from .regions import REGION_COUNT
+from .regions import REGION_COUNT, SLOT_REGIONS, TIP_REGIONS
 from .windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_GAP_WORK, ACC_INDICATED_WORK, ACC_LAW_EXCESS, ACC_MAX_FORCE,
                       ACC_MAX_TILT, ACC_STATOR_MOMENT, MASKS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_END, RECORD_LOBE,
                       RECORD_START)
@@ -39,7 +39,7 @@ class WindowSummary:
     driving_torque: float         # <T_d> = W_in / angle turned [N m]
     stator_torque: float          # <lambda3 + M_gas,stator> [N m]
     gap_torque: float             # <M_gap>, pressure moment on the gaps no body carries [N m]
-    max_normal_force: tuple       # max F_n per region c1..c6 [N]
+    max_normal_force: tuple       # max F_n per region, in the order of mechanics.regions.REGIONS [N]
     max_tilt: float               # max |phi3 - theta| [rad]
     contact_law_excess: float     # largest penetration beyond a force law's validity limit [m]
     mode_dwell: dict              # mode mask -> cumulative dwell [s]
@@ -64,13 +64,13 @@ class WindowSummary:
 
     @property
     def max_slot_force(self) -> float:
-        """Largest normal force of the slot regions c1-c4 [N]."""
-        return max(self.max_normal_force[:4])
+        """Largest normal force of the regions on the rotor (slot mouth, walls and bottom) [N]."""
+        return max(self.max_normal_force[i] for i in SLOT_REGIONS)
 
     @property
     def max_tip_force(self) -> float:
-        """Largest normal force of the tip regions c5, c6 [N]."""
-        return max(self.max_normal_force[4:])
+        """Largest normal force of the regions on the stator (the tip) [N]."""
+        return max(self.max_normal_force[i] for i in TIP_REGIONS)
 
     @property
     def mode_count(self) -> int:

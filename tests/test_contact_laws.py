@@ -15,6 +15,7 @@ from rotary_vane.mechanics.contact_laws import (elastic_force, friction_coeffici
                                                 normal_force)
 from rotary_vane.mechanics.kinematics import pose_of
 from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.regions import MEMORY_SLOTS, REGION_COUNT
 
 RPM = 2 * math.pi / 60
 E_STAR_MODEL_DOC = 113.7e9        # docs/model.md §5.2 / §9
@@ -89,8 +90,9 @@ def test_normal_force_damping_factor_and_no_adhesion(check):
 
 
 def test_no_force_when_contacts_are_open(reference, kernel):
-    """F(delta <= 0) = 0: a vane retracted from the stator and centred in a slot with clearance has all six
-    penetrations <= 0, zero normal and friction forces, contact mode 0 and no contact power."""
+    """F(delta <= 0) = 0: a vane retracted from the stator and centred in a slot with clearance has all
+    penetrations <= 0 (the bottom corners clear the slot bottom), zero normal and friction forces, contact mode 0 and
+    no contact power."""
     p = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3, pressure_model="ideal_gas_table")
     sim = Simulation(p, constant_speed(1500.0), initial_angle=0.0)
     xi_t = sim.machine.tip_centre
@@ -102,15 +104,15 @@ def test_no_force_when_contacts_are_open(reference, kernel):
             tip = ref.point(theta) + (p.stator_clearance - gap) * ref.normal(theta)
             cg = tip - xi_t * er
             state = (*cg, theta, 1.0, -2.0, 150.0)
-            status, dydt, out = kernel.evaluate_at(sim, time, state, onset=(0.1,) * 5)
+            status, dydt, out = kernel.evaluate_at(sim, time, state, onset=(0.1,) * MEMORY_SLOTS)
             assert abs(out["rotor_angle"] - theta) < 1e-12
             assert status == 0
-            for k in range(1, 7):
+            for k in range(1, REGION_COUNT + 1):
                 # delta <= 0, or NaN where the region has no valid candidate (the tip's other quarter)
                 assert not out[f"penetration_{k}"] > 0
                 assert out[f"normal_force_{k}"] == 0 and out[f"friction_force_{k}"] == 0
             assert out["contact_mode"] == 0
-            assert dydt[8] == 0 and dydt[9] == 0 and out["contact_energy"] == 0
+            assert dydt[8] == 0 and dydt[9] == 0 and dydt[10] == 0 and out["contact_energy"] == 0
             assert out["stator_force_x"] == 0 and out["rotor_force_x"] == 0
 
 

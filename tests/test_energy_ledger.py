@@ -8,6 +8,8 @@ import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation
 from rotary_vane.mechanics.performance import revolutions
+from rotary_vane.mechanics.regions import SLOT_REGIONS, TIP_REGIONS
+from rotary_vane.mechanics.windows import MASKS
 
 MODELS = ("polytropic", "ideal_gas_table", "real_gas")
 CLEARANCES = (0.0, 0.05e-3, 0.2e-3)
@@ -63,16 +65,16 @@ def test_gap_work_grows_with_clearance(model):
 
 
 def test_split_figures_are_consistent():
-    """Peak force per region group and the two mode counts: the slot and tip peaks are the c1-c4 and c5-c6 maxima of
+    """Peak force per region group and the two mode counts: the slot and tip peaks are the rotor and stator maxima of
     the per-region peaks, the overall peak is the larger of the two, and counting the slot-mouth candidate type
     with the regions can only split modes (the extended count is at least the regions-only count)."""
     for clearance in CLEARANCES:
         summary = last_revolution("ideal_gas_table", clearance)[1]
-        assert summary.max_slot_force == max(summary.max_normal_force[:4])
-        assert summary.max_tip_force == max(summary.max_normal_force[4:])
+        assert summary.max_slot_force == max(summary.max_normal_force[i] for i in SLOT_REGIONS)
+        assert summary.max_tip_force == max(summary.max_normal_force[i] for i in TIP_REGIONS)
         assert summary.max_contact_force == max(summary.max_slot_force, summary.max_tip_force)
         assert summary.mode_count_extended >= summary.mode_count >= 1
-        regions_of_extended = {key % 64 for key in summary.distinct_modes_extended}
+        regions_of_extended = {key % MASKS for key in summary.distinct_modes_extended}
         assert set(summary.distinct_modes) >= regions_of_extended
 
 
