@@ -125,7 +125,7 @@ def slot_bottom_contact(side, pose, m):
 
 @kernel
 def slot_floor_contact(side, pose, m):
-    """Region c7 (side = +1) or c8 (side = -1): bottom corner B vs the flat slot bottom (docs/model.md §4.5).
+    """Region c7 (side = +1) or c8 (side = -1): bottom corner B vs the flat slot bottom (docs/model.md §4.4b).
 
     B = G + xi_B e_xi + side (t/2) e_eta,   delta = r_sb - B.e_r,   n = e_r,   P = B.
     """

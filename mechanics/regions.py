@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 ROTOR, STATOR = 0, 1
-# detector kinds (docs/model.md §4.2-§4.4, §4.5): slot-mouth edge, bottom corner on the slot wall, tip on the
+# detector kinds (docs/model.md §4.2-§4.4b): slot-mouth edge, bottom corner on the slot wall, tip on the
 # stator, bottom corner on the slot bottom
 SLOT_MOUTH, WALL_CORNER, TIP, FLOOR_CORNER = range(4)
 

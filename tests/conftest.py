@@ -242,7 +242,7 @@ def reference_slot_bottom(side, g, phi, theta, v):
 
 
 def reference_slot_floor(side, g, phi, theta, v):
-    """docs/model.md §4.5 for region c7 (side +1) / c8 (side -1): corner B vs the flat slot bottom at r_sb."""
+    """docs/model.md §4.4b for region c7 (side +1) / c8 (side -1): corner B vs the flat slot bottom at r_sb."""
     er = rot(theta)
     corner = g + v.xi_b * rot(phi) + side * 0.5 * v.t * perp(rot(phi))
     return dict(delta=v.r_sb - np.dot(corner, er), n=er, P=corner, radius=v.edge, kind="corner")
