@@ -121,9 +121,10 @@ result = simulate_fmu("{model}.fmu", stop_time=0.2, output_interval=1e-3, debug_
 <p>libcosim (libcosimpy): add the FMU to an execution (<code>CosimExecution.from_step_size</code>,
 <code>add_local_slave</code>), connect <code>shaft_speed</code> from a motor and read <code>shaft_torque_mean</code>;
 times are integer nanoseconds.</p>
-<p>Hosts that are not Python programs (C/C++ tools): the FMU's binary does not link libpython; start the host
-with <code>LD_PRELOAD=/path/to/libpython3.X.so</code> of a Python environment that has the requirements, and make
-that environment visible through <code>PYTHONPATH</code> or <code>PYTHONHOME</code>.</p>
+<p>Hosts that are not Python programs (C/C++ tools) need nothing set: the FMU's binary loads the Python that
+<code>ROTARY_VANE_PYTHON=/path/to/venv/bin/python</code> names if it is set, else the one that built the FMU, else
+<code>python3</code> on PATH; it must be the same Python version, with a shared libpython and the requirements.
+When none serves, <code>fmi2Instantiate</code> returns NULL and says where it looked.</p>
 <p>Errors follow FMI 2.0: a bad parameter is fmi2Error at exitInitializationMode and at every later doStep;
 misuse (calls in the wrong state, writes to outputs or to fixed parameters after initialization, unknown value
 references, strings that are not UTF-8, bad step sizes, communication points that do not continue the model time,

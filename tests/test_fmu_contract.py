@@ -1,8 +1,9 @@
 """The FMI 2.0 status contract of the built FMUs: every row of the README's contract table, checked through fmpy.
 
-The README's table (rows C1..C15: a call and situation, the status) is the specification: this file reads it, runs
-each row's situations against the built FMU in host processes (tests/fmu_helpers.py) and checks that every
-situation returns the row's status. It also checks what each row says follows: nothing is set, the model state
+The README's table (rows C1..C22: a call and situation, the status) is the specification: this file reads it, runs
+each row's situations against the built FMU in host processes (tests/fmu_helpers.py; rows C16-C22, which concern
+the FMU's C shim, through tests/fmu_shim_cases.py) and checks that every situation returns the row's status (for
+fmi2Instantiate: an instance or NULL). It also checks what each row says follows: nothing is set, the model state
 after a refused call is byte for byte the state before it, a pickle handed in as a state runs nothing, a discarded
 step can be retried, the error state is left by fmi2SetFMUstate and fmi2Reset; and what a user sees of a bad
 parameter in fmpy.simulate_fmu and in libcosim.
@@ -15,16 +16,23 @@ from pathlib import Path
 import pytest
 
 import fmu_helpers as H
+import fmu_shim_cases as S
 from test_fmu_compressor import script
 
 README = Path(__file__).resolve().parents[1] / "README.md"
-ROW = re.compile(r"^\s*\| (C\d+) \| (.+?) \| (fmi2OK|fmi2Warning|fmi2Discard|fmi2Error) \| (.+?) \|\s*$", re.M)
-STATUS = {"fmi2OK": H.OK, "fmi2Warning": H.WARNING, "fmi2Discard": H.DISCARD, "fmi2Error": H.ERROR}
+ROW = re.compile(r"^\s*\| (C\d+) \| (.+?) \| (fmi2OK|fmi2Warning|fmi2Discard|fmi2Error|fmi2Fatal|an instance|NULL) "
+                 r"\| (.+?) \|\s*$", re.M)
+STATUS = {"fmi2OK": H.OK, "fmi2Warning": H.WARNING, "fmi2Discard": H.DISCARD, "fmi2Error": H.ERROR,
+          "fmi2Fatal": H.FATAL, S.INSTANCE: S.INSTANCE, S.NULL: S.NULL}
 
 
-def contract_rows() -> dict[str, int]:
-    """row -> status, from the README's table."""
+def contract_rows() -> dict[str, int | str]:
+    """row -> status (or what fmi2Instantiate returns), from the README's table."""
     return {row: STATUS[status] for row, _, status, _ in ROW.findall(README.read_text(encoding="utf-8"))}
+
+
+def status_name(status: int | str) -> str:
+    return H.STATUS_NAMES[status] if isinstance(status, int) else status
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +96,7 @@ MISUSE = PRELUDE + """
 host = H.Host($fmu)
 f, vr = host.fmu, {name: v.valueReference for name, v in host.variables.items()}
 
-# C3 and C14 before initialization; each refusal is followed by fmi2Reset (row C9)
+# C3 and C20 before initialization; each refusal is followed by fmi2Reset (row C9)
 for label, call in [
         ("getReal in the instantiated state", lambda: get_reals(f, vr, ["shaft_torque"])[0]),
         ("doStep in the instantiated state", lambda: step(f, 0.0, 1e-3)),
@@ -98,7 +106,7 @@ for label, call in [
                                                     step(f, 0.0, 1e-3))[2])]:
     record("C3", label, call())
     record("C9", f"fmi2Reset after '{label}'", status(f.reset))
-record("C14", "fmi2GetStatus", raw(f, "fmi2GetStatus", 0, byref(c_int())))
+record("C20", "fmi2GetStatus before initialization", raw(f, "fmi2GetStatus", 0, byref(c_int())))
 record("C9", "fmi2Reset after fmi2GetStatus", status(f.reset))
 
 assert host.initialize(**H.OPERATING_POINT) == H.OK
@@ -324,9 +332,23 @@ def refused_for_its_range(name: str, messages: list[str]) -> bool:
                for m in messages)
 
 
-def statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times):
+@pytest.fixture(scope="module")
+def shim_cases(built_fmus, tmp_path_factory) -> dict:
+    """Rows C14 and C16-C22 from the runs of tests/fmu_shim_cases.py (made once per session)."""
+    fmu, folder = built_fmus / "RotaryVaneCompressor.fmu", S.cases_folder(tmp_path_factory)
+    python_host, fatal = S.python_host_cases(fmu, folder), S.fatal_cases(fmu, folder)
+    no_python = S.parse_c_host(S.no_python_run(fmu, folder).stdout)
+    rows = {row: python_host.get(row, []) + fatal.get(row, []) for row in ("C14", "C16", "C17", "C18", "C20", "C21",
+                                                                           "C22")}
+    rows["C19"] = [["C host, ROTARY_VANE_PYTHON naming no interpreter",
+                    S.NULL if no_python["not_ok_calls"] == ["CALL fmi2Instantiate -> NULL"] else S.INSTANCE]]
+    return rows
+
+
+def statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times,
+                    shim_cases):
     """[(situation, status)] of one README row from every run."""
-    found = [tuple(item) for item in misuse.get(row, [])]
+    found = [tuple(item) for item in misuse.get(row, []) + shim_cases.get(row, [])]
     found += [tuple(item) for item in integration_failure.get(row, []) + no_gas.get(row, [])]
     if row == "C1":     # a bound refused for a relation with another parameter is row C2, not C1
         found += [(f"{model} {case}", status) for model, run in at_bounds.items()
@@ -344,17 +366,19 @@ def statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at
 
 
 @pytest.mark.parametrize("row", sorted(contract_rows(), key=lambda r: int(r[1:])))
-def test_contract_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times):
+def test_contract_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times,
+                      shim_cases):
     """Every situation of the README's row returns the row's status."""
     expected = contract_rows()[row]
-    found = statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times)
+    found = statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times,
+                            shim_cases)
     assert found, f"no situation of row {row} was run"
-    wrong = [(label, H.STATUS_NAMES[status]) for label, status in found if status != expected]
-    assert not wrong, f"row {row} says {H.STATUS_NAMES[expected]}: {wrong}"
+    wrong = [(label, status_name(status)) for label, status in found if status != expected]
+    assert not wrong, f"row {row} says {status_name(expected)}: {wrong}"
 
 
 def test_the_readme_table_has_the_rows_this_file_runs():
-    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 16)]
+    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 23)]
 
 
 def test_a_refused_call_changes_nothing_and_a_state_blob_runs_nothing(misuse, integration_failure):
