@@ -63,3 +63,18 @@ def command_environment(base: dict[str, str]) -> dict[str, str]:
     env = dict(base)
     env["LD_LIBRARY_PATH"] = os.pathsep.join(filter(None, (str(tbb_library().parent), env.get("LD_LIBRARY_PATH"))))
     return env
+
+
+def run(simulation, names: list[str], steps: int, parameter_set: str | None = None) -> list[list[float]]:
+    """Initialize `simulation` (an ecospy.EcosSimulation; applying the parameter set named `parameter_set`), step
+    it `steps` times, terminate and free it; the Real values of `names` ("instance::variable") after initialization
+    and after each step."""
+    if not simulation.init(parameter_set=parameter_set):
+        raise RuntimeError(f"Ecos could not initialize: {load_ecospy().EcosLib.get_last_error()}")
+    rows = [[simulation.get_real(name) for name in names]]
+    for _ in range(steps):
+        simulation.step(1)
+        rows.append([simulation.get_real(name) for name in names])
+    simulation.terminate()
+    simulation.free()
+    return rows
