@@ -70,7 +70,8 @@ def run(simulation, names: list[str], steps: int, parameter_set: str | None = No
     it `steps` times, terminate and free it; the Real values of `names` ("instance::variable") after initialization
     and after each step."""
     if not simulation.init(parameter_set=parameter_set):
-        raise RuntimeError(f"Ecos could not initialize: {load_ecospy().EcosLib.get_last_error()}")
+        from ecospy import EcosLib
+        raise RuntimeError(f"Ecos could not initialize: {EcosLib.get_last_error()}")
     rows = [[simulation.get_real(name) for name in names]]
     for _ in range(steps):
         simulation.step(1)
