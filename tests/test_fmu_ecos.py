@@ -198,9 +198,11 @@ simulation.free()
 
 
 def command_line_rows(folder, out, stop_time, parameter_set):
-    """`ecos simulate` of the system in `folder` from a clean environment (nothing for the FMU: no LD_PRELOAD,
-    PYTHONHOME or PYTHONPATH); its CSV as {column: [values]} with the exit status and output."""
-    env = {k: v for k, v in ecos_host.command_environment(H.host_environment()).items()
+    """`ecos simulate` of the system in `folder`, run in `out`, from a clean environment (nothing for the FMU: no
+    LD_PRELOAD, PYTHONHOME or PYTHONPATH; its temporary folder in `out`, where a crash leaves Ecos's unpack
+    folders); its CSV as {column: [values]}."""
+    (out / "tmp").mkdir()
+    env = {k: v for k, v in ecos_host.command_environment(H.host_environment(TMPDIR=str(out / "tmp"))).items()
            if k not in ("LD_PRELOAD", "PYTHONHOME", "PYTHONPATH")}
     done = subprocess.run([str(ecos_host.binaries() / "ecos"), "simulate", "--path", str(folder), "--stepSize",
                            str(STEP), "--stopTime", str(stop_time), "--parameterSet", parameter_set],
