@@ -59,8 +59,10 @@ import numpy as np
 from .disk_cache import cache_path, load_or_build
 from .fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point, coolprop, coolprop_version
 from .kernel import kernel
+from .saturation import (DEFAULT_SATURATION_STEP, SATURATION_QUANTITIES, SATURATION_TOLERANCE, VAPOUR_VOLUME,
+                         build_saturation_line, mixture_state, saturation_quantity)
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3                 # 3: the saturation line and the two-phase flag
 DEFAULT_TEMPERATURE_NODES = 160
 DEFAULT_LOG_DENSITY_NODES = 160
 DOME_REFINEMENT = 8                # dome-limit cells per table cell in T
@@ -83,6 +85,7 @@ STATUS_DENSITY_BELOW_TABLE = 4
 STATUS_DENSITY_ABOVE_TABLE = 5
 STATUS_NEAR_SATURATION = 6
 STATUS_INACCURATE_CELL = 7
+STATUS_LIQUID = 9                  # 8 is the nozzle table's STATUS_THROAT_NEAR_SATURATION
 
 
 class Envelope(NamedTuple):
@@ -109,6 +112,12 @@ class PropertyTable(NamedTuple):
     ideal_gas_exponent: np.ndarray         # (n_T,): k = c_p0/(c_p0 - R) at the T nodes (docs/model.md §7.4)
     superheat_margin: float                # K
     critical_temperature: float            # K
+    # the dome (docs/model.md §7.3.1, thermo.saturation); defaults: a table without a saturation line
+    two_phase: float = 0.0                 # 1.0: states inside the dome are equilibrium mixtures (module docstring)
+    saturation_temperature_min: float = 0.0      # K, first saturation node
+    saturation_temperature_max: float = 0.0      # K, end of the accepted saturation line
+    inverse_saturation_step: float = 1.0   # 1/K
+    saturation_nodes: np.ndarray = np.zeros((2, len(SATURATION_QUANTITIES), 2))   # thermo.saturation.SaturationLine
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -116,50 +125,74 @@ class PropertyTable(NamedTuple):
 
 TABLE_SCALARS = ("temperature_min", "temperature_max", "inverse_temperature_step", "log_density_min",
                  "log_density_max", "inverse_log_density_step", "inverse_dome_step", "superheat_margin",
-                 "critical_temperature")
+                 "critical_temperature", "two_phase", "saturation_temperature_min", "saturation_temperature_max",
+                 "inverse_saturation_step")
 
 
 def table_arrays(table: PropertyTable) -> tuple:
-    """The table as plain arrays (scalars, nodes, dome limit, accurate cells, ideal-gas exponent): what the time
-    loop takes across the Python -> numba boundary, where a named tuple costs microseconds per call to unbox."""
+    """The table as plain arrays (scalars, nodes, dome limit, accurate cells, ideal-gas exponent, saturation
+    nodes): what the time loop takes across the Python -> numba boundary, where a named tuple costs microseconds
+    per call to unbox."""
     return (np.array([getattr(table, name) for name in TABLE_SCALARS]), table.nodes, table.dome_log_density_limit,
-            table.accurate_cell, table.ideal_gas_exponent)
+            table.accurate_cell, table.ideal_gas_exponent, table.saturation_nodes)
 
 
 @kernel(allocates=True)
-def table_from_arrays(scalars, nodes, dome_log_density_limit, accurate_cell, ideal_gas_exponent):
+def table_from_arrays(scalars, nodes, dome_log_density_limit, accurate_cell, ideal_gas_exponent, saturation_nodes):
     """The PropertyTable of `table_arrays`' output, inside compiled code."""
     return PropertyTable(scalars[0], scalars[1], scalars[2], scalars[3], scalars[4], scalars[5], nodes, scalars[6],
-                         dome_log_density_limit, accurate_cell, ideal_gas_exponent, scalars[7], scalars[8])
+                         dome_log_density_limit, accurate_cell, ideal_gas_exponent, scalars[7], scalars[8],
+                         scalars[9], scalars[10], scalars[11], scalars[12], saturation_nodes)
 
 
 
 @kernel
+def _dew_volume(temperature, table):
+    """v_v(T) [m^3/kg] where the dome branch applies (two-phase table, T on the accepted saturation line), else 0."""
+    if not (table.two_phase != 0.0 and table.saturation_temperature_min <= temperature
+            and temperature < table.saturation_temperature_max):
+        return 0.0
+    return saturation_quantity(VAPOUR_VOLUME, temperature, table.saturation_temperature_min,
+                               table.inverse_saturation_step, table.saturation_nodes)[0]
+
+
+@kernel
 def _locate(temperature, density, table):
-    """(status, i, j, t, s): the cell (i, j) holding (T, ln rho) and the local coordinates t, s in [0, 1]."""
+    """(status, i, j, t, s, dew volume): the cell (i, j) holding (T, ln rho) and the local coordinates t, s in
+    [0, 1]. For a state beyond the dew line that the dome branch takes (dew volume v_v > 0), the cell and
+    coordinates are those of the dew point (T, 1/v_v), where the mixture is anchored on the gas branch."""
     nodes = table.nodes
     if not (temperature > 0.0 and density > 0.0):
-        return STATUS_INVALID_STATE, 0, 0, 0.0, 0.0
+        return STATUS_INVALID_STATE, 0, 0, 0.0, 0.0, 0.0
     if temperature < table.temperature_min:
-        return STATUS_TEMPERATURE_BELOW_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_TEMPERATURE_BELOW_TABLE, 0, 0, 0.0, 0.0, 0.0
     if temperature > table.temperature_max:
-        return STATUS_TEMPERATURE_ABOVE_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_TEMPERATURE_ABOVE_TABLE, 0, 0, 0.0, 0.0, 0.0
     log_density = math.log(density)
     if log_density < table.log_density_min:
-        return STATUS_DENSITY_BELOW_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_DENSITY_BELOW_TABLE, 0, 0, 0.0, 0.0, 0.0
     if log_density > table.log_density_max:
-        return STATUS_DENSITY_ABOVE_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_DENSITY_ABOVE_TABLE, 0, 0, 0.0, 0.0, 0.0
+    dew_volume = _dew_volume(temperature, table)
+    if dew_volume > 0.0:
+        if density * dew_volume > 1.0:
+            log_density = -math.log(dew_volume)          # inside the dome: the dew point's cell
+            if log_density < table.log_density_min:      # the envelope misses the dew point at this T
+                return STATUS_DENSITY_BELOW_TABLE, 0, 0, 0.0, 0.0, 0.0
+        else:
+            dew_volume = 0.0                             # on the gas side of the dew line: the gas branch
+    else:
+        limits = table.dome_log_density_limit
+        if log_density > limits[min(int((temperature - table.temperature_min) * table.inverse_dome_step),
+                                    limits.size - 1)]:
+            return STATUS_NEAR_SATURATION, 0, 0, 0.0, 0.0, 0.0
     u = (temperature - table.temperature_min) * table.inverse_temperature_step
     v = (log_density - table.log_density_min) * table.inverse_log_density_step
-    limits = table.dome_log_density_limit
-    if log_density > limits[min(int((temperature - table.temperature_min) * table.inverse_dome_step),
-                                limits.size - 1)]:
-        return STATUS_NEAR_SATURATION, 0, 0, 0.0, 0.0
     i = min(int(u), nodes.shape[0] - 2)
-    j = min(int(v), nodes.shape[1] - 2)
+    j = min(max(int(v), 0), nodes.shape[1] - 2)
     if not table.accurate_cell[i, j]:
-        return STATUS_INACCURATE_CELL, 0, 0, 0.0, 0.0
-    return STATUS_OK, i, j, u - i, v - j
+        return STATUS_INACCURATE_CELL, 0, 0, 0.0, 0.0, 0.0
+    return STATUS_OK, i, j, u - i, v - j, dew_volume
 
 
 @kernel
@@ -207,9 +240,9 @@ def _interpolate(nodes, i, j, t, s):
 
 @kernel
 def table_status(temperature, density, table):
-    """Status code of (T [K], rho [kg/m^3]) in `table` (0: inside the envelope, outside the dome's margin, in a
-    cell that passed its accuracy check)."""
-    return _locate(temperature, density, table)[0]
+    """Status code of (T [K], rho [kg/m^3]) in `table` (0: inside the envelope, outside the dome's margin or, for a
+    two-phase table, an equilibrium mixture or gas; in a cell that passed its accuracy check)."""
+    return table_state(temperature, density, table).status
 
 
 @kernel
@@ -233,14 +266,38 @@ class FluidState(NamedTuple):
 
 
 @kernel
-def table_state(temperature, density, table):
-    """The FluidState at (T [K], rho [kg/m^3]) by bicubic Hermite interpolation in (T, ln rho)."""
-    status, i, j, t, s = _locate(temperature, density, table)
+def _state_and_quality(temperature, density, table):
+    """(FluidState, vapour quality) at (T, rho): the gas branch (quality 1) or, beyond the dew line of a two-phase
+    table, the equilibrium mixture anchored at the dew point (module docstring, thermo.saturation)."""
+    status, i, j, t, s, dew_volume = _locate(temperature, density, table)
     pressure, enthalpy, heat_capacity, pressure_derivative, slope = _interpolate(table.nodes, i, j, t, s)
     density_derivative = slope * table.inverse_log_density_step / density
+    quality = 1.0
+    if dew_volume > 0.0:          # pressure, enthalpy: the gas branch's p_sat and h_v at the dew point
+        quality, liquid_enthalpy, _, heat_capacity, pressure_derivative = mixture_state(
+            temperature, 1.0 / density, table.saturation_temperature_min, table.inverse_saturation_step,
+            table.saturation_nodes)
+        enthalpy = liquid_enthalpy + quality * (enthalpy - liquid_enthalpy)
+        density_derivative = 0.0
+        if not quality >= 0.0:
+            status = STATUS_LIQUID
     if status != STATUS_OK:       # one exit: an early return costs about twice the whole evaluation in numba
-        pressure = enthalpy = heat_capacity = pressure_derivative = density_derivative = np.nan
-    return FluidState(pressure, enthalpy, heat_capacity, pressure_derivative, density_derivative, status)
+        pressure = enthalpy = heat_capacity = pressure_derivative = density_derivative = quality = np.nan
+    return FluidState(pressure, enthalpy, heat_capacity, pressure_derivative, density_derivative, status), quality
+
+
+@kernel
+def table_state(temperature, density, table):
+    """The FluidState at (T [K], rho [kg/m^3]) by bicubic Hermite interpolation in (T, ln rho), or the equilibrium
+    mixture inside the dome of a two-phase table (module docstring)."""
+    return _state_and_quality(temperature, density, table)[0]
+
+
+@kernel
+def table_quality(temperature, density, table):
+    """Vapour mass fraction x at (T [K], rho [kg/m^3]): in [0, 1) inside the dome of a two-phase table, 1 for any
+    single-phase gas state (superheated or supercritical), NaN if the status is not 0."""
+    return _state_and_quality(temperature, density, table)[1]
 
 
 @kernel
@@ -394,6 +451,7 @@ def build_property_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEF
     dome_cells = DOME_REFINEMENT * (temperature_nodes - 1)
     dome_temperatures = np.linspace(envelope.temperature_min, envelope.temperature_max, dome_cells + 1)
     limits = np.array([dome_log_density_limit(fluid, t, envelope.superheat_margin) for t in dome_temperatures])
+    saturation = build_saturation_line(fluid, envelope.temperature_min, envelope.temperature_max)
     return PropertyTable(
         temperature_min=float(temperatures[0]), temperature_max=float(temperatures[-1]),
         inverse_temperature_step=float(1.0 / temperature_step),
@@ -405,7 +463,16 @@ def build_property_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEF
         accurate_cell=accurate_cell,
         ideal_gas_exponent=np.array([fluid.ideal_gas_exponent(t) for t in temperatures]),
         superheat_margin=envelope.superheat_margin,
-        critical_temperature=fluid.critical_temperature)
+        critical_temperature=fluid.critical_temperature,
+        two_phase=0.0, saturation_temperature_min=saturation.temperature_min,
+        saturation_temperature_max=saturation.temperature_max,
+        inverse_saturation_step=saturation.inverse_temperature_step, saturation_nodes=saturation.nodes)
+
+
+def with_two_phase(table: PropertyTable, two_phase: bool) -> PropertyTable:
+    """The same table with the dome branch on (states beyond the dew line are equilibrium mixtures, STATUS_OK) or
+    off (STATUS_NEAR_SATURATION within the superheat margin of the dome, as before: the default)."""
+    return table._replace(two_phase=1.0 if two_phase else 0.0)
 
 
 def table_envelope(table: PropertyTable) -> Envelope:
@@ -456,7 +523,8 @@ def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_de
                      "envelope " + " ".join(repr(float(v)) for v in envelope),
                      f"nodes {temperature_nodes}x{log_density_nodes}", f"coolprop {coolprop_version()}",
                      f"dome refinement {DOME_REFINEMENT}", f"cross step {CROSS_DERIVATIVE_STEP!r}",
-                     f"cell tolerance {CELL_TOLERANCE!r}"])
+                     f"cell tolerance {CELL_TOLERANCE!r}", f"saturation step {DEFAULT_SATURATION_STEP!r}",
+                     f"saturation tolerance {SATURATION_TOLERANCE!r}"])
 
 
 def property_table_path(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
@@ -477,14 +545,18 @@ def _load(path: Path, key: str, temperature_nodes, log_density_nodes) -> Propert
     if (table.nodes.shape != (temperature_nodes, log_density_nodes, 4, 4)
             or table.accurate_cell.shape != (temperature_nodes - 1, log_density_nodes - 1)
             or table.ideal_gas_exponent.shape != (temperature_nodes,)
-            or table.dome_log_density_limit.shape != (DOME_REFINEMENT * (temperature_nodes - 1),)):
+            or table.dome_log_density_limit.shape != (DOME_REFINEMENT * (temperature_nodes - 1),)
+            or table.saturation_nodes.ndim != 3 or table.saturation_nodes.shape[0] < 2
+            or table.saturation_nodes.shape[1:] != (len(SATURATION_QUANTITIES), 2)):
         raise ValueError("array shapes do not match the key")
     return table
 
 
 def property_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
-                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None) -> PropertyTable:
-    """The table of `fluid` over `envelope`, loaded from the disk cache or built from HEOS and cached.
+                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None,
+                       two_phase=False) -> PropertyTable:
+    """The table of `fluid` over `envelope`, loaded from the disk cache or built from HEOS and cached; with
+    `two_phase`, states beyond the dew line are equilibrium mixtures (`with_two_phase`; the cached file is the same).
 
     `fluid`: a Fluid, or anything naming one by its canonical `coolprop_name` (an OperatingPoint): the Fluid, and
     with it CoolProp, is then made only if the table must be built. Cache folder: `cache_dir`, else
@@ -496,11 +568,12 @@ def property_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMP
     log_density_nodes = _check_count("log_density_nodes", log_density_nodes)
     path = property_table_path(fluid, envelope, temperature_nodes, log_density_nodes, cache_dir)
     key = _cache_key(fluid.coolprop_name, envelope, temperature_nodes, log_density_nodes)
-    return load_or_build(
+    table = load_or_build(
         path, lambda stored: _load(stored, key, temperature_nodes, log_density_nodes),
         lambda: build_property_table(fluid if isinstance(fluid, Fluid) else Fluid(fluid.coolprop_name), envelope,
                                      temperature_nodes, log_density_nodes),
         lambda stream, table: np.savez(stream, key=np.array(key), **table._asdict()), "property table")
+    return with_two_phase(table, two_phase)
 
 
 # ----------------------------------------------------------------------------------------------------------
