@@ -590,6 +590,9 @@ def envelope_status_text(status, where, envelope, table_name, user, fluid, tempe
         side = "below" if status == STATUS_DENSITY_BELOW_TABLE else "above"
         return (f"{where}: the density is {side} the {table_name}'s range [{envelope.density_min:.6g}, "
                 f"{envelope.density_max:.6g}] kg/m^3; build the table over a wider Envelope")
+    if status == STATUS_LIQUID:
+        return (f"{where} is a liquid: denser than the saturated liquid at its temperature; {user} takes gas and "
+                "liquid-vapour mixtures only (docs/model.md §7.3.1)")
     if status == STATUS_NEAR_SATURATION:
         detail = _saturation_detail(fluid, float(temperature), float(density)) if fluid is not None else ""
         return (f"{where} is inside the two-phase dome or less than {envelope.superheat_margin:g} K of superheat "
