@@ -32,7 +32,10 @@ from typing import NamedTuple
 
 from .fluid import SUPERHEAT_MARGIN, Fluid
 from .property_table import (DEFAULT_LOG_DENSITY_NODES, DEFAULT_TEMPERATURE_NODES, ENVELOPE_COLD_MARGIN,
-                             ENVELOPE_HIGH_PRESSURE_FACTOR, ENVELOPE_HOT_MARGIN, ENVELOPE_LOW_PRESSURE_FACTOR, Envelope)
+                             ENVELOPE_HIGH_PRESSURE_FACTOR, ENVELOPE_HOT_MARGIN, ENVELOPE_LOW_PRESSURE_FACTOR, Envelope,
+                             property_table_for)
+from .real_gas_nozzle import (DEFAULT_LOG_DENSITY_NODES as NOZZLE_LOG_DENSITY_NODES,
+                              DEFAULT_TEMPERATURE_NODES as NOZZLE_TEMPERATURE_NODES, nozzle_table_for)
 
 CELSIUS = 273.15
 EVAPORATING_TEMPERATURE_RANGE = (-40.0 + CELSIUS, 20.0 + CELSIUS)   # K: p_s range on the saturation line
@@ -43,6 +46,7 @@ SUCTION_SUPERHEAT_MAX = 30.0             # K above T_sat(p_s,max)
 SUCTION_QUALITY_MIN = 0.5
 GRID_STEPS = (1.35, 0.032)    # K and ln(kg/m^3) between nodes: those of the default R134a operating point's
                               # 160 x 160 table (215 K and 5.06 over 159 steps), so the accuracy stays as per point
+NOZZLE_GRID_STEPS = (3.4, 0.08)   # the same for the nozzle table's 64 x 64 (215 K and 5.06 over 63 steps)
 
 
 class InputRange(NamedTuple):
@@ -103,10 +107,28 @@ def fluid_envelope(fluid: Fluid, superheat_margin=SUPERHEAT_MARGIN) -> Envelope:
                     max(dense_gas, wet), float(superheat_margin))
 
 
+def _grid(envelope: Envelope, steps, minimum) -> tuple[int, int]:
+    temperature_step, log_density_step = steps
+    temperature_nodes = math.ceil((envelope.temperature_max - envelope.temperature_min) / temperature_step) + 1
+    log_density_nodes = math.ceil(math.log(envelope.density_max / envelope.density_min) / log_density_step) + 1
+    return max(temperature_nodes, minimum[0]), max(log_density_nodes, minimum[1])
+
+
 def fluid_grid(envelope: Envelope) -> tuple[int, int]:
     """(T nodes, ln rho nodes) of a property table over `envelope` with steps no larger than those of the default
     R134a operating point's table (GRID_STEPS), and no fewer nodes than the default grid."""
-    temperature_step, log_density_step = GRID_STEPS
-    temperature_nodes = math.ceil((envelope.temperature_max - envelope.temperature_min) / temperature_step) + 1
-    log_density_nodes = math.ceil(math.log(envelope.density_max / envelope.density_min) / log_density_step) + 1
-    return max(temperature_nodes, DEFAULT_TEMPERATURE_NODES), max(log_density_nodes, DEFAULT_LOG_DENSITY_NODES)
+    return _grid(envelope, GRID_STEPS, (DEFAULT_TEMPERATURE_NODES, DEFAULT_LOG_DENSITY_NODES))
+
+
+def fluid_nozzle_grid(envelope: Envelope) -> tuple[int, int]:
+    """(T nodes, ln rho nodes) of a nozzle table over `envelope` (NOZZLE_GRID_STEPS, as `fluid_grid`)."""
+    return _grid(envelope, NOZZLE_GRID_STEPS, (NOZZLE_TEMPERATURE_NODES, NOZZLE_LOG_DENSITY_NODES))
+
+
+def fluid_tables_for(fluid, cache_dir=None):
+    """(property table, nozzle table) of `fluid` (a Fluid or a CoolProp name) over its fluid-wide envelope, with
+    the dome on (two_phase), from the disk cache or built and cached (thermo.disk_cache)."""
+    fluid = fluid if isinstance(fluid, Fluid) else Fluid(fluid)
+    envelope = fluid_envelope(fluid)
+    return (property_table_for(fluid, envelope, *fluid_grid(envelope), cache_dir=cache_dir, two_phase=True),
+            nozzle_table_for(fluid, envelope, *fluid_nozzle_grid(envelope), cache_dir=cache_dir, two_phase=True))

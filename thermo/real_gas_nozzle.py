@@ -37,10 +37,18 @@ Build check: at every cell centre the flux is computed directly (at sigma = 0.5 
 interpolated one; a cell worse than CELL_TOLERANCE (relative) is refused (STATUS_INACCURATE_CELL), as are cells
 with a node that HEOS could not evaluate.
 
-Status codes: those of `property_table` for the upstream state (0-7), plus
-    STATUS_THROAT_NEAR_SATURATION = 8   upstream accepted; the throat state is inside the dome or within the margin
-                                        of it: the flux is the gas-branch (metastable) continuation.
-For codes 1-7 the flux is NaN.
+Wet upstream states (docs/model.md §7.4.1; off by default, like the property table's dome): a table with
+`two_phase` set (`with_two_phase`, `nozzle_table_for(..., two_phase=True)`) takes an upstream state beyond the dew
+line as an equilibrium mixture expanding along its equilibrium isentrope (homogeneous equilibrium model,
+thermo.two_phase_nozzle), tabulated with the same pr*, psi*^2, m(sigma) in (T0, x0) over the saturation line that
+every table carries; x0 from the saturation line as in thermo.saturation. The viscosity there is the saturated
+vapour's. At the dew line the flux steps by the difference between the metastable and the equilibrium expansion
+(0.1-0.4 % for R134a).
+
+Status codes: those of `property_table` for the upstream state (0-7, and STATUS_LIQUID = 9 with two_phase), plus
+    STATUS_THROAT_NEAR_SATURATION = 8   upstream a gas state; the throat state is inside the dome or within the
+                                        margin of it: the flux is the gas-branch (metastable) continuation.
+For codes 1-7 and 9 the flux is NaN.
 
 Tables are cached on disk per fluid, envelope, grid, format version and CoolProp version (`nozzle_table_for`), in
 the property tables' cache folder.
@@ -314,7 +322,8 @@ def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, dens
 @kernel
 def table_viscosity(temperature, density, table):
     """(mu [Pa s], status): dynamic viscosity of the upstream state (bilinear in (T, ln rho); for the Reynolds
-    number of the leakage laws, thermo.leakage). NaN unless status == 0."""
+    number of the leakage laws, thermo.leakage); inside the dome of a two-phase table the saturated vapour's at
+    T (no mixture rule). NaN unless status == 0."""
     status, i, j, t, s, dome = _locate(temperature, density, table)
     if dome and status == STATUS_OK:          # the saturated vapour's (docs/model.md §7.4.1)
         vapour_volume = saturation_quantity(VAPOUR_VOLUME, temperature, table.saturation_temperature_min,
