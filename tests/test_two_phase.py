@@ -265,3 +265,22 @@ def test_fluid_wide_table_is_as_accurate_as_the_per_point_table(fluid, tmp_path,
     for k, name in enumerate(("p", "h", "c_v", "(dp/dT)_rho")):
         check(f"fluid-wide table vs HEOS {name} (per point {worst['own'][k]:.1e})", worst["wide"][k],
               max(3.0 * worst["own"][k], 1e-8))
+
+
+@pytest.mark.parametrize("name", ("R134a", "R290", "CO2"))
+def test_fluid_envelope_holds_the_dew_line_and_the_wet_suction_states(name):
+    """Every dew point from T_min to below T_crit lies inside the density range (so every mixture is anchored), and
+    so do the mixtures of quality 0.5 between the lowest suction and the highest condensing saturation temperature;
+    no vapour at p >= p_min is colder than T_min."""
+    fluid = Fluid(name)
+    wide = fluid_envelope(fluid)
+    inputs = input_range(fluid)
+    heos = CP.AbstractState("HEOS", fluid.coolprop_name)
+    lowest_pressure = max(0.25 * inputs.suction_pressure_min, fluid.dew_pressure(fluid.triple_temperature))
+    assert fluid.saturation_temperature(lowest_pressure) >= wide.temperature_min - 1e-9
+    hottest = fluid.saturation_temperature(inputs.discharge_pressure_max) or 293.15
+    for temperature in np.linspace(wide.temperature_min, fluid.critical_temperature - 1.0, 40):
+        vapour, _ = saturated_densities(heos, temperature)
+        assert wide.density_min <= vapour <= wide.density_max
+        if fluid.saturation_temperature(inputs.suction_pressure_min) <= temperature <= hottest:
+            assert mixture_density(heos, temperature, inputs.suction_quality_min) <= wide.density_max

@@ -159,7 +159,6 @@ def table_from_arrays(scalars, nodes, dome_log_density_limit, accurate_cell, ide
                          scalars[9], scalars[10], scalars[11], scalars[12], saturation_nodes)
 
 
-
 @kernel
 def _dew_volume(temperature, table):
     """v_v(T) [m^3/kg] where the dome branch applies (two-phase table, T on the accepted saturation line), else 0."""
