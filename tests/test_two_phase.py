@@ -47,7 +47,7 @@ def table(fluid):
 
 @pytest.fixture(scope="module")
 def nozzles(fluid):
-    return real_gas_nozzle.with_two_phase(build_nozzle_table(fluid, SMALL_ENVELOPE, 16, 16, 9), True)
+    return build_nozzle_table(fluid, SMALL_ENVELOPE, 16, 16, 9, two_phase=True)
 
 
 def saturated_densities(heos, temperature):
@@ -284,3 +284,18 @@ def test_fluid_envelope_holds_the_dew_line_and_the_wet_suction_states(name):
         assert wide.density_min <= vapour <= wide.density_max
         if fluid.saturation_temperature(inputs.suction_pressure_min) <= temperature <= hottest:
             assert mixture_density(heos, temperature, inputs.suction_quality_min) <= wide.density_max
+
+
+def test_nozzle_table_builds_the_wet_part_only_when_asked(fluid, table, tmp_path, heos):
+    """The default (per operating point) nozzle table has no HEM part, and refuses a wet upstream state even with
+    the flag switched on; asked with two_phase, the table is another file and takes it."""
+    envelope = Envelope(240.0, 330.0, 2.0, 100.0, 1.0)
+    plain = real_gas_nozzle.nozzle_table_for(fluid, envelope, 6, 6, 5, cache_dir=tmp_path)
+    wet = real_gas_nozzle.nozzle_table_for(fluid, envelope, 6, 6, 5, cache_dir=tmp_path, two_phase=True)
+    assert len(list(tmp_path.iterdir())) == 2
+    assert plain.two_phase == 0.0 and plain.dome_critical_ratio.shape == (2, 2)
+    density = mixture_density(heos, 280.0, 0.9)
+    pressure = table_state(280.0, density, table).pressure
+    switched = real_gas_nozzle.with_two_phase(plain, True)
+    assert real_gas_mass_flux(280.0, density, pressure, 0.5 * pressure, switched)[1] == STATUS_NEAR_SATURATION
+    assert real_gas_mass_flux(280.0, density, pressure, 0.5 * pressure, wet)[1] != STATUS_NEAR_SATURATION

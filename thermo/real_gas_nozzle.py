@@ -37,11 +37,11 @@ Build check: at every cell centre the flux is computed directly (at sigma = 0.5 
 interpolated one; a cell worse than CELL_TOLERANCE (relative) is refused (STATUS_INACCURATE_CELL), as are cells
 with a node that HEOS could not evaluate.
 
-Wet upstream states (docs/model.md §7.4.1; off by default, like the property table's dome): a table with
-`two_phase` set (`with_two_phase`, `nozzle_table_for(..., two_phase=True)`) takes an upstream state beyond the dew
-line as an equilibrium mixture expanding along its equilibrium isentrope (homogeneous equilibrium model,
-thermo.two_phase_nozzle), tabulated with the same pr*, psi*^2, m(sigma) in (T0, x0) over the saturation line that
-every table carries; x0 from the saturation line as in thermo.saturation. The viscosity there is the saturated
+Wet upstream states (docs/model.md §7.4.1; off by default, like the property table's dome): a table built with
+`two_phase` (`nozzle_table_for(..., two_phase=True)`; `with_two_phase` switches it off and on again) takes an
+upstream state beyond the dew line as an equilibrium mixture expanding along its equilibrium isentrope (homogeneous
+equilibrium model, thermo.two_phase_nozzle), tabulated with the same pr*, psi*^2, m(sigma) in (T0, x0) over the
+saturation line of the property table (thermo.saturation), which gives x0. The viscosity there is the saturated
 vapour's. At the dew line the flux steps by the difference between the metastable and the equilibrium expansion
 (0.1-0.4 % for R134a).
 
@@ -542,9 +542,10 @@ def _check_ratio_nodes(value):
 
 
 def build_nozzle_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
-                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES) -> NozzleTable:
+                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
+                       two_phase=False) -> NozzleTable:
     """Evaluate the table's nodes from CoolProp HEOS and check every cell (no disk cache; `nozzle_table_for`
-    caches)."""
+    caches). `two_phase`: also build the HEM part for wet upstream states (about 1 s) and switch it on."""
     envelope = _check_envelope(fluid, envelope)
     temperature_nodes = _check_count("temperature_nodes", temperature_nodes)
     log_density_nodes = _check_count("log_density_nodes", log_density_nodes)
@@ -577,7 +578,7 @@ def build_nozzle_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAU
         viscosity=viscosity, dome_log_density_limit=np.minimum(limits[:-1], limits[1:]),
         accurate_cell=np.ones((temperature_nodes - 1, log_density_nodes - 1), dtype=np.bool_))
     table = table._replace(accurate_cell=_accurate_cells(fluid, table, temperatures, log_densities))
-    return _with_dome(fluid, table, envelope, sigmas)
+    return with_two_phase(_with_dome(fluid, table, envelope, sigmas), True) if two_phase else table
 
 
 def _with_dome(fluid: Fluid, table: NozzleTable, envelope: Envelope, sigmas) -> NozzleTable:
@@ -648,9 +649,10 @@ def nozzle_table_envelope(table: NozzleTable) -> Envelope:
 # ----------------------------------------------------------------------------------------------------------
 # disk cache
 
-def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_density_nodes, ratio_nodes) -> str:
+def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_density_nodes, ratio_nodes,
+               two_phase) -> str:
     """Everything the table's content depends on, as text (floats by repr: exact); no CoolProp import."""
-    return "|".join([f"nozzle format {FORMAT_VERSION}", f"fluid {coolprop_name}",
+    return "|".join([f"nozzle format {FORMAT_VERSION}", f"fluid {coolprop_name}", f"two-phase {bool(two_phase)}",
                      "envelope " + " ".join(repr(float(v)) for v in envelope),
                      f"nodes {temperature_nodes}x{log_density_nodes}x{ratio_nodes}", f"coolprop {coolprop_version()}",
                      f"dome cells {DOME_CELLS}", f"cell tolerance {CELL_TOLERANCE!r}",
@@ -666,11 +668,11 @@ def _counts(temperature_nodes, log_density_nodes, ratio_nodes):
 
 def nozzle_table_path(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
-                      cache_dir=None) -> Path:
+                      cache_dir=None, two_phase=False) -> Path:
     """The cache file: <cache dir>/nozzle-<fluid>-<hash of the key>.npz (thermo.disk_cache). `fluid`: a Fluid, or
     anything naming one by its canonical `coolprop_name` (a thermo.operating_point.OperatingPoint)."""
     key = _cache_key(fluid.coolprop_name, _checked_envelope(envelope),
-                     *_counts(temperature_nodes, log_density_nodes, ratio_nodes))
+                     *_counts(temperature_nodes, log_density_nodes, ratio_nodes), two_phase)
     return cache_path(f"nozzle-{fluid.coolprop_name}", key, ".npz", cache_dir)
 
 
@@ -707,17 +709,17 @@ def nozzle_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPER
     or built from HEOS and cached (thermo.disk_cache: atomic write; an unreadable or mismatching file is rebuilt
     with a warning, never trusted). `fluid`: a Fluid, or anything naming one by its canonical `coolprop_name` (an
     OperatingPoint): the Fluid, and with it CoolProp, is then made only if the table must be built. The file name
-    hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION. `two_phase`: `with_two_phase` (the
-    cached file is the same)."""
+    hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION. `two_phase`: a table with the HEM
+    part for wet upstream states, switched on (its own file: the part costs about 1 s to build)."""
     envelope = _checked_envelope(envelope)
     counts = _counts(temperature_nodes, log_density_nodes, ratio_nodes)
-    key = _cache_key(fluid.coolprop_name, envelope, *counts)
-    table = load_or_build(
-        nozzle_table_path(fluid, envelope, *counts, cache_dir=cache_dir), lambda stored: _load(stored, key, *counts),
+    key = _cache_key(fluid.coolprop_name, envelope, *counts, two_phase)
+    return load_or_build(
+        nozzle_table_path(fluid, envelope, *counts, cache_dir=cache_dir, two_phase=two_phase),
+        lambda stored: _load(stored, key, *counts),
         lambda: build_nozzle_table(fluid if isinstance(fluid, Fluid) else Fluid(fluid.coolprop_name), envelope,
-                                   *counts),
+                                   *counts, two_phase),
         lambda stream, table: np.savez(stream, key=np.array(key), **table._asdict()), "nozzle table")
-    return with_two_phase(table, two_phase)
 
 
 # ----------------------------------------------------------------------------------------------------------

@@ -48,6 +48,9 @@ class EquilibriumIsentrope:
         self.entropy = state.smass()
         CP = coolprop()
         self._state = CP.AbstractState("HEOS", fluid.coolprop_name)
+        # the expansion cannot go below the triple point (CO2 near its triple point would reach solid states)
+        self.lowest_ratio = max(LOWEST_CRITICAL_RATIO,
+                                fluid.dew_pressure(fluid.triple_temperature) / self.pressure + 1e-6)
 
     def flux_squared(self, ratio):
         """G^2 = rho^2 2 (h0 - h) at p = ratio p0 on the equilibrium isentrope; ValueError if HEOS fails."""
@@ -60,12 +63,12 @@ class EquilibriumIsentrope:
         return density * density * 2.0 * (self.enthalpy - self._state.hmass())
 
     def critical_ratio(self):
-        """pr* = p*/p0, the maximum of G on (LOWEST_CRITICAL_RATIO, 1)."""
+        """pr* = p*/p0, the maximum of G on (LOWEST_CRITICAL_RATIO or the triple-point pressure's ratio, 1)."""
         from scipy.optimize import minimize_scalar
-        result = minimize_scalar(lambda ratio: -self.flux_squared(ratio), bounds=(LOWEST_CRITICAL_RATIO, 1.0 - 1e-6),
+        result = minimize_scalar(lambda ratio: -self.flux_squared(ratio), bounds=(self.lowest_ratio, 1.0 - 1e-6),
                                  method="bounded", options=dict(xatol=CRITICAL_RATIO_TOLERANCE))
-        if not (result.success and LOWEST_CRITICAL_RATIO + 1e-6 < result.x):
-            raise ValueError("no choked flow above pr = 0.06")
+        if not (result.success and self.lowest_ratio + 1e-6 < result.x):
+            raise ValueError(f"no choked flow above pr = {self.lowest_ratio:.3g}")
         return float(result.x)
 
 
