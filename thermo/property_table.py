@@ -18,7 +18,7 @@ df/dT over x +- 1e-4, truncation error ~1e-9 relative). Inside a cell with local
 The interpolant is C^1 with an O(step^4) error and needs only the four corner nodes (16 numbers per property), so an
 evaluation is one logarithm and about 100 multiply-adds. ln rho: the gas pressure is nearly proportional to rho, so
 a uniform grid in ln rho has the same relative resolution in the re-expanded and in the over-compressed chamber.
-Grid: 160 x 160 by default (3.3 MB, under 1 s to build). Measured against HEOS beyond the 1 K margin
+Grid: 160 x 160 by default (3.4 MB with the saturation line, under 1 s to build). Measured against HEOS beyond the 1 K margin
 (benchmarks/bench_properties.py): R134a, Air, R410A, R1234yf, R290 p and h within 1e-8, c_v and (dp/dT)_rho
 within 2e-7; CO2 (3.5 -> 10 MPa) p and h within 1e-7, c_v about 1e-5 and (dp/dT)_rho 4e-6 next to the critical
 point. At 96 x 96 R134a is still at 3e-8; the finer default is for the near-critical cells of fluids such as CO2

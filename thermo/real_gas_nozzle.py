@@ -43,7 +43,7 @@ upstream state beyond the dew line as an equilibrium mixture expanding along its
 equilibrium model, thermo.two_phase_nozzle), tabulated with the same pr*, psi*^2, m(sigma) in (T0, x0) over the
 saturation line of the property table (thermo.saturation), which gives x0. The viscosity there is the saturated
 vapour's. At the dew line the flux steps by the difference between the metastable and the equilibrium expansion
-(0.1-0.4 % for R134a).
+(R134a: 0.1-0.4 % at 250-350 K, up to 2 % near the critical point).
 
 Status codes: those of `property_table` for the upstream state (0-7, and STATUS_LIQUID = 9 with two_phase), plus
     STATUS_THROAT_NEAR_SATURATION = 8   upstream a gas state; the throat state is inside the dome or within the

@@ -19,8 +19,8 @@ direct HEM value; a cell worse than CELL_TOLERANCE is refused (STATUS_INACCURATE
 
 At the dew line (x0 = 1) the gas side of the nozzle table expands the saturated vapour on the gas branch (a
 metastable throat, status 8) while this side condenses it in equilibrium: measured for R134a the choked flux of
-HEM is 0.08-0.42 % below the metastable one between 250 and 350 K (0.02-0.17 % at pr = 0.9): the step in the
-flow across the dew line (benchmarks/bench_nozzle.py --dome).
+HEM is 0.08-0.42 % below the metastable one between 250 and 350 K (0.02-0.17 % at pr = 0.9), up to 2 % near the
+end of the saturation line (CO2: 13 %): the step in the flow across the dew line (benchmarks/bench_fluid_tables.py).
 """
 from __future__ import annotations
 
