@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 import sys
 import weakref
 from fractions import Fraction
@@ -35,6 +36,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from . import state_format
+from . import state_schema as schema
 from .exit_guard import release_at_exit
 from .variables import RealVariable, unit_definitions
 
@@ -66,7 +68,7 @@ class SavedState:
 
 class RefusedState:
     """What fmi2DeSerializeFMUstate made of bytes that are not a state of this FMU (the shim refuses it at once:
-    its serialized size is 0; fmi2SetFMUstate of it is fmi2Error)."""
+    its serialized size is 0; fmi2SetFMUstate of it is fmi2Error and logs the reason to the instance's logger)."""
 
     __slots__ = ("reason",)
 
@@ -111,6 +113,28 @@ class Clock:
         clock.elapsed = Fraction(int(numerator), int(denominator))
         clock.next_point = float(state["next_point"])
         return clock
+
+
+# a saved clock (Clock.get_state): the elapsed time is a sum of doubles, a fraction with a power of two (at most
+# 2**1074) as denominator; its numerator is below 2**2200 for any sum of fewer than 2**100 finite doubles
+CLOCK_SCHEMA = schema.Record({"start_time": schema.Real(), "elapsed": schema.Sequence(schema.Integer(0, 2 ** 2200), 2),
+                              "next_point": schema.Real()})
+
+
+def check_clock(clock: dict, model_time: float | None) -> None:
+    """The saved clock against the model time of the saved model (None: no model built yet)."""
+    numerator, denominator = clock["elapsed"]
+    if denominator <= 0 or denominator & (denominator - 1) or denominator.bit_length() > 1075:
+        raise ValueError(f"state field 'clock.elapsed' has the denominator {str(denominator)[:40]}: allowed a power "
+                         f"of two up to 2**1074 (a sum of step sizes)")
+    elapsed = Fraction(numerator, denominator)
+    if model_time is None and (elapsed != 0 or clock["next_point"] != clock["start_time"]):
+        raise ValueError(f"the state is inconsistent: no model is built, yet the clock has run (elapsed "
+                         f"{float(elapsed)!r} s, next communication point {clock['next_point']!r} s, start time "
+                         f"{clock['start_time']!r} s)")
+    if model_time is not None and float(elapsed) != model_time:
+        raise ValueError(f"the state is inconsistent: the clock's elapsed time {float(elapsed)!r} s is not the "
+                         f"model's time {model_time!r} s")
 
 
 def guarded(method):
@@ -210,7 +234,8 @@ class GuardedSlave(PythonFmuSlave):
             self.initialize()
         except Exception as error:        # noqa: BLE001 - refused: the instance stays as it was (the shim: error state)
             self._roll_back(before)
-            return self.report(f"initialization refused: {error}" if isinstance(error, ValueError) else
+            return self.report(f"initialization refused: {blame_changed(str(error), self.changed_parameters())}"
+                               if isinstance(error, ValueError) else
                                f"initialization failed ({type(error).__name__}: {str(error)[:400]})")
         self.phase = INITIALIZED
         self.clock = Clock(self.clock.start_time)
@@ -271,7 +296,8 @@ class GuardedSlave(PythonFmuSlave):
     @guarded
     def _set_fmu_state(self, state):
         if isinstance(state, RefusedState):
-            return self.report(f"fmi2SetFMUstate: the state was refused when it was read: {state.reason}")
+            return self.report(f"fmi2DeSerializeFMUstate refused the state: {state.reason}; nothing of it was used, "
+                               f"the current state is kept")
         if not isinstance(state, SavedState):
             return self.report(f"fmi2SetFMUstate: a {type(state).__name__} is not a state of this FMU")
         tree = state.tree
@@ -303,18 +329,33 @@ class GuardedSlave(PythonFmuSlave):
     @classmethod
     def _fmu_state_from_bytes(cls, blob: bytes):
         """The state in `blob`, or a RefusedState (fmu_src/c/fmi2_status_shim.c has already refused a blob whose
-        envelope is not this FMU's: wrong magic, version, length, checksum or build)."""
+        envelope is not this FMU's: wrong magic, version, length, checksum or build). The content is checked in
+        full (check_state_tree) before anything of it is used; no exception leaves (pythonfmu would answer
+        fmi2Fatal and destroy the instance). pythonfmu calls this on the class, which has no logger: the reason
+        goes to stderr here and to the instance's logger when the RefusedState reaches `_set_fmu_state`."""
         try:
             tree = state_format.decode(blob, cls.__name__, build_fingerprint())
-        except ValueError as error:
-            print(f"[{cls.__name__}] fmi2DeSerializeFMUstate refused: {error}", file=sys.stderr, flush=True)
-            return RefusedState(f"fmi2DeSerializeFMUstate: {error}")
-        if not (isinstance(tree, dict) and set(tree) == {"phase", "clock", "failure", "model"}
-                and tree["phase"] in PHASES):
-            print(f"[{cls.__name__}] fmi2DeSerializeFMUstate refused: the description is not of an FMU state",
-                  file=sys.stderr, flush=True)
-            return RefusedState("fmi2DeSerializeFMUstate: the description is not of an FMU state")
+            cls.check_state_tree(tree)
+        except Exception as error:          # noqa: BLE001 - any fault of the bytes is a refusal
+            reason = f"{str(error)[:600]}" if isinstance(error, ValueError) else \
+                f"{type(error).__name__}: {str(error)[:600]}"
+            print(f"[{cls.__name__}] fmi2DeSerializeFMUstate refused: {reason}", file=sys.stderr, flush=True)
+            return RefusedState(reason)
         return SavedState(tree, bytes(blob))
+
+    @classmethod
+    def check_state_tree(cls, tree) -> None:
+        """ValueError naming the first field of `tree` (a state read from bytes) that is not what this slave saves
+        (fmu_src.state_schema): the phase, the clock against the model's time, the model (`model_schema`,
+        `model_relations`)."""
+        tree_schema = schema.Record({"phase": schema.Text(PHASES), "clock": CLOCK_SCHEMA,
+                                     "failure": schema.Nullable(schema.Text(length=5000)), "model": cls.model_schema()})
+        schema.check(tree_schema, cls.model_relations(), tree)
+        model_time = cls.model_time(tree["model"])
+        if (model_time is not None) != (tree["phase"] in (INITIALIZED, TERMINATED)):
+            raise ValueError(f"the state is inconsistent: phase {tree['phase']!r} "
+                             f"{'with' if model_time is not None else 'without'} a built model")
+        check_clock(tree["clock"], model_time)
 
     @classmethod
     def serializable(cls, tree):
@@ -450,6 +491,42 @@ class GuardedSlave(PythonFmuSlave):
     def undefined_reason(self, name: str) -> str:
         """Why the Real variable `name` has no defined value now."""
         return "no defined value"
+
+    def changed_parameters(self) -> dict:
+        """The parameters whose values differ from their defaults (name -> value)."""
+        return {}
+
+    @classmethod
+    def model_schema(cls) -> schema.Spec:
+        """The schema of `snapshot`'s tree as read back from bytes (fmu_src.state_schema)."""
+        raise NotImplementedError
+
+    @classmethod
+    def model_relations(cls) -> tuple:
+        """Checks between the fields of a state tree (functions of the whole tree raising ValueError), run after
+        the fields fit `model_schema`."""
+        return ()
+
+    @classmethod
+    def model_time(cls, model) -> float | None:
+        """The model time (from the start time) of a `snapshot` tree that fits `model_schema`; None if it holds
+        no built model."""
+        raise NotImplementedError
+
+
+NAMED_PARAMETER = re.compile(r"parameter '(\w+)'")
+
+
+def blame_changed(refusal: str, changed: dict) -> str:
+    """A refusal at initialization that names a parameter the importer did not change (a relation: `rotor_radius`
+    at its minimum refused through the `stroke` it leaves no room for), led by the parameters that were changed,
+    with their values, so that the message names the parameter that was set (README contract row C2)."""
+    named = NAMED_PARAMETER.search(refusal)
+    if named is None or named.group(1) in changed or not changed:
+        return refusal
+    values = ", ".join(f"'{name}' = {schema.short_repr(value)}" for name, value in changed.items())
+    return (f"parameter{'s' if len(changed) > 1 else ''} {values} {'are' if len(changed) > 1 else 'is'} refused: "
+            f"with {'them' if len(changed) > 1 else 'it'}, {refusal}")
 
 
 def build_fingerprint() -> str:

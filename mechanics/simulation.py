@@ -23,11 +23,11 @@ from .displacement import displacement
 from .errors import ContactLawWarning, IntegrationError
 from .gas_coupling import gas_coupling
 from .geometry import law_arguments
-from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, WORKSPACE_ROWS,
-                          evaluate_state, initial_chamber_inputs, run)
+from .integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, REJECTED,
+                          WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
                      MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
-                     VY, WORK_IN, X, Y)
+                     VY, WORK_IN, WORK_LIMIT, X, Y)
 from .machine import machine_array, record_of
 from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
@@ -38,6 +38,18 @@ from .windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZ
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
+# The work bound of one advance (docs/model.md §8.2): at most WORK_FLOOR + WORK_PER_MS per ms of the interval step
+# attempts (accepted or rejected). Measured (benchmarks/bench_work_bound.py) at the defaults: about 330 per ms; at
+# the extremes of the numerical parameters (max_step = 1e-8 s: 100 000; rtol 1e-10 with tolerance_scale 1e-3:
+# PLACEHOLDER): the bound is ten times the largest, and a state that cannot advance (a step size of 0 or 5e-324)
+# stops at it within seconds instead of spinning.
+WORK_FLOOR = 100_000
+WORK_PER_MS = 1_000_000
+
+
+def work_bound(interval: float) -> int:
+    """The most step attempts an advance over `interval` seconds may make."""
+    return WORK_FLOOR + math.ceil(WORK_PER_MS * min(interval, 1e9) * 1e3)
 
 
 class History:
@@ -245,11 +257,14 @@ class Simulation:
             self._speed_for_advance(float(end_time), speed_rpm, interpolate)
         if end_time == self.time:
             return
+        start, budget = self.time, work_bound(end_time - self.time)
+        attempts = self.counters[ACCEPTED] + self.counters[REJECTED]
         while True:
             status, t, rows, records = run(
                 self.time, float(end_time), self.state, self.memory, self.control, self.abm_history, self.window,
                 self.run_dwell, self._work, self._outs, self._rows, self.keep_history, self._record_buffer,
-                self.counters, *self._kernel_context())
+                self.counters, budget - (self.counters[ACCEPTED] + self.counters[REJECTED] - attempts),
+                *self._kernel_context())
             self.time = t
             if rows:
                 last = self._rows[rows - 1] if self.keep_history else self._rows[0]
@@ -261,6 +276,11 @@ class Simulation:
             self._note_law_excess(records)
             if status == REACHED_END:
                 return
+            if status == WORK_LIMIT:
+                raise IntegrationError(f"{self._failure_text(status)}: {budget} attempts for the "
+                                       f"{end_time - start:.6g} s from t = {start!r} s to {end_time!r} s reached "
+                                       f"only t = {t!r} s, with the step size {self.control[CONTROL_STEP]!r} s",
+                                       t, self.state)
             if status != RECORD_FULL:
                 raise IntegrationError(self._failure_text(status), t, self.state)
 
