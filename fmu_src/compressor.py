@@ -16,6 +16,7 @@ from pythonfmu.variables import Boolean
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from rotary_vane.mechanics.parameters import is_numeric
+from rotary_vane.mechanics.simulation import WORK_PER_MS
 from rotary_vane.mechanics.layout import WORK_IN
 from rotary_vane.mechanics.modes import MODE_COUNT
 from rotary_vane.mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
@@ -35,6 +36,9 @@ RUN_PARAMETERS = {
     "pressure_table_speed": ("rpm", 1500.0, 1.0, 1e5,
                              "operating speed at which the Level 0.5 pressure table is built"),
     "initial_rotor_angle": ("rad", 0.0, -1e3, 1e3, "rotor angle theta at the start time"),
+    "work_bound": ("1", float(WORK_PER_MS), 1.0, 1e12,
+                   "most integrator step attempts per ms of a communication step (plus 1000): a step that needs more "
+                   "is discarded (fmi2Discard) instead of running on; the default is ten times what valid runs need"),
 }
 # outputs of the communication step itself
 STEP_RESULTS = {
@@ -185,6 +189,7 @@ class CompressorSlave(GuardedSlave):
         self.simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed)
         self.simulation.warn_contact_law = False          # logged once per run by advance()
+        self.simulation.work_per_ms = self.work_bound
 
     def input_error(self):
         if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
@@ -313,6 +318,7 @@ def _check_built_model(tree) -> None:
                          f"{' and periodic-map values' if model['map_values'] else ''}")
     if model["simulation"] is not None:
         compressor_state.check_controls(model["simulation"], parameters)
+        compressor_state.check_window(model["simulation"])
 
 
 def _column_getter(owner, name, column):

@@ -17,7 +17,8 @@ from rotary_vane.mechanics.layout import MEMORY_SIZE, REAL_GAS_STATE_SIZE, VANE_
 from rotary_vane.mechanics.outputs import OUTPUT_SIZE
 from rotary_vane.mechanics.simulation import ARRAY_FIELDS, SimulationState
 from rotary_vane.mechanics.speed import SHAPES
-from rotary_vane.mechanics.windows import MODE_KEYS, RECORD_SIZE, WINDOW_SIZE
+from rotary_vane.mechanics.windows import (MODE_KEYS, RECORD_SIZE, WINDOW_ACCUMULATORS, WINDOW_SIZE,
+                                           WINDOW_START)
 
 from . import state_schema as schema
 
@@ -65,7 +66,8 @@ SIMULATION = schema.Record({
     "memory": _float_array(MEMORY_SIZE),
     "control": _float_array(CONTROL_SIZE, low=0.0),
     "abm_history": _float_array(ABM_HISTORY, _state_size),
-    "window": _float_array(WINDOW_SIZE),
+    # the lobe's start row is NaN until the first valley when the run started between two (windows.new_window)
+    "window": schema.Array("<f8", lambda tree: (WINDOW_SIZE,), finite=False),
     "run_dwell": _float_array(MODE_KEYS, low=0.0),
     "speed_law": _float_array(SPEED_LAW_SIZE),
     "last_output": _float_array(OUTPUT_SIZE),
@@ -75,6 +77,17 @@ SIMULATION = schema.Record({
     "recent_records": schema.Array("<f8", lambda tree: ((None, 2 * _lobes(tree) - 1), RECORD_SIZE), finite=False),
 })
 MAP_RUN = schema.Record({name: schema.Real() for name in ("time", "angle", "speed_rpm", "work", "acceleration")})
+
+
+def check_window(simulation: dict) -> None:
+    """The open lobe window: its start row finite, or all NaN (a run that started between two valleys has no start
+    row until the first valley), everything after it finite."""
+    window = simulation["window"]
+    start, rest = window[WINDOW_START:WINDOW_START + OUTPUT_SIZE], window[WINDOW_ACCUMULATORS:]
+    if not (np.isfinite(start).all() or np.isnan(start).all()) or not np.isfinite(rest).all():
+        raise ValueError(f"state field 'model.simulation.window' holds {int((~np.isfinite(window)).sum())} values "
+                         f"that are not finite: allowed a finite window, or one whose whole start row (the first "
+                         f"{OUTPUT_SIZE} values) is NaN")
 
 
 def check_controls(simulation: dict, parameters: dict) -> None:

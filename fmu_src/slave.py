@@ -8,10 +8,13 @@ standard prescribes (the README's contract table lists them):
 
 * fmi2Error for misuse: a call the current state does not allow (the message names the state), a bad parameter,
   a write to an output, to a fixed parameter after initialization or of the wrong type, an unknown value
-  reference, a step size that is not finite and > 0, a communication point that does not continue the model time;
-  the shim then holds the instance in the error state until fmi2SetFMUstate or fmi2Reset;
+  reference, a step size that is not finite and > 0, a communication point that does not continue the model time,
+  a step past the stopTime of fmi2SetupExperiment, state bytes whose content is not a state this slave saves
+  (checked in full against its schema, fmu_src/state_schema.py, before any of it is used); the shim then holds the
+  instance in the error state until fmi2SetFMUstate or fmi2Reset;
 * fmi2Discard for a step that was not taken and may be retried: an input value out of range, a step the
-  integrator could not complete; the model is then exactly as before the call (`do_step` restores a snapshot);
+  integrator could not complete or that exceeded its work bound; the model is then exactly as before the call
+  (`do_step` restores a snapshot);
 * fmi2Warning for a value that is returned but has no defined value (NaN), with the reason.
 
 The states of FMI 2.0 co-simulation this glue keeps: instantiated, initialization mode, initialized (FMI's
@@ -48,6 +51,7 @@ INSTANTIATED, INITIALIZATION_MODE, INITIALIZED, TERMINATED = ("instantiated", "i
                                                               "terminated")
 PHASES = (INSTANTIATED, INITIALIZATION_MODE, INITIALIZED, TERMINATED)
 CONTINUITY_ULPS = 16          # a communication point continues if within 16 ulp of the previous point + step size
+STOP_SLACK = 1e-6             # a step may end past stopTime by this fraction of its size (a master's rounding)
 
 
 class StepFailed(Exception):
@@ -82,8 +86,9 @@ class Clock:
     its step size, compared within a few ulp of the magnitudes involved: at a start time of 1e9 s a master's own
     clock is resolved to 1.2e-7 s)."""
 
-    def __init__(self, start_time: float):
+    def __init__(self, start_time: float, stop_time: float | None = None):
         self.start_time = float(start_time)
+        self.stop_time = stop_time            # fmi2SetupExperiment's stopTime, if defined
         self.elapsed = Fraction(0)
         self.next_point = self.start_time
 
@@ -98,17 +103,29 @@ class Clock:
     def end_of(self, step_size: float) -> Fraction:
         return self.elapsed + Fraction(step_size)
 
+    def past_stop(self, point: float, step_size: float) -> str | None:
+        """Why a step of `step_size` from `point` would end past the stop time, or None. A master's own clock may
+        have drifted by its roundings (t += h): an end within 16 ulp or a millionth of the step past the stop time
+        is taken as the stop time."""
+        end = point + step_size
+        slack = max(CONTINUITY_ULPS * math.ulp(max(abs(end), abs(self.stop_time or 0.0))), STOP_SLACK * step_size)
+        if self.stop_time is None or end - self.stop_time <= slack:
+            return None
+        return (f"fmi2DoStep from t = {point!r} s of {step_size!r} s would end at t = {end!r} s, past the stopTime "
+                f"= {self.stop_time!r} s given to fmi2SetupExperiment; nothing was done (FMI 2.0: a step beyond the "
+                f"stop time is an error)")
+
     def commit(self, point: float, step_size: float, elapsed: Fraction) -> None:
         self.elapsed = elapsed
         self.next_point = point + step_size
 
     def get_state(self) -> dict:
-        return dict(start_time=self.start_time, elapsed=[self.elapsed.numerator, self.elapsed.denominator],
-                    next_point=self.next_point)
+        return dict(start_time=self.start_time, stop_time=self.stop_time,
+                    elapsed=[self.elapsed.numerator, self.elapsed.denominator], next_point=self.next_point)
 
     @classmethod
     def from_state(cls, state: dict) -> "Clock":
-        clock = cls(float(state["start_time"]))
+        clock = cls(float(state["start_time"]), state["stop_time"])
         numerator, denominator = state["elapsed"]
         clock.elapsed = Fraction(int(numerator), int(denominator))
         clock.next_point = float(state["next_point"])
@@ -117,8 +134,8 @@ class Clock:
 
 # a saved clock (Clock.get_state): the elapsed time is a sum of doubles, a fraction with a power of two (at most
 # 2**1074) as denominator; its numerator is below 2**2200 for any sum of fewer than 2**100 finite doubles
-CLOCK_SCHEMA = schema.Record({"start_time": schema.Real(), "elapsed": schema.Sequence(schema.Integer(0, 2 ** 2200), 2),
-                              "next_point": schema.Real()})
+CLOCK_SCHEMA = schema.Record({"start_time": schema.Real(), "stop_time": schema.Nullable(schema.Real()),
+                              "elapsed": schema.Sequence(schema.Integer(0, 2 ** 2200), 2), "next_point": schema.Real()})
 
 
 def check_clock(clock: dict, model_time: float | None) -> None:
@@ -128,6 +145,9 @@ def check_clock(clock: dict, model_time: float | None) -> None:
         raise ValueError(f"state field 'clock.elapsed' has the denominator {str(denominator)[:40]}: allowed a power "
                          f"of two up to 2**1074 (a sum of step sizes)")
     elapsed = Fraction(numerator, denominator)
+    if clock["stop_time"] is not None and clock["stop_time"] < clock["start_time"]:
+        raise ValueError(f"the state is inconsistent: its stop time {clock['stop_time']!r} s is before its start "
+                         f"time {clock['start_time']!r} s")
     if model_time is None and (elapsed != 0 or clock["next_point"] != clock["start_time"]):
         raise ValueError(f"the state is inconsistent: no model is built, yet the clock has run (elapsed "
                          f"{float(elapsed)!r} s, next communication point {clock['next_point']!r} s, start time "
@@ -216,7 +236,10 @@ class GuardedSlave(PythonFmuSlave):
         if not math.isfinite(start_time):
             return self.report(f"fmi2SetupExperiment: startTime = {start_time!r} s is invalid: allowed a finite "
                                f"time")
-        self.clock = Clock(start_time)
+        if stop_time is not None and not (math.isfinite(stop_time) and stop_time >= start_time):
+            return self.report(f"fmi2SetupExperiment: stopTime = {stop_time!r} s is invalid: allowed a finite time "
+                               f">= startTime = {start_time!r} s")
+        self.clock = Clock(start_time, stop_time)
 
     def enter_initialization_mode(self):
         refusal = self.wrong_state("fmi2EnterInitializationMode", (INSTANTIATED,))
@@ -238,7 +261,7 @@ class GuardedSlave(PythonFmuSlave):
                                if isinstance(error, ValueError) else
                                f"initialization failed ({type(error).__name__}: {str(error)[:400]})")
         self.phase = INITIALIZED
-        self.clock = Clock(self.clock.start_time)
+        self.clock = Clock(self.clock.start_time, self.clock.stop_time)
 
     def terminate(self):
         refusal = self.wrong_state("fmi2Terminate", (INITIALIZED,))
@@ -255,7 +278,7 @@ class GuardedSlave(PythonFmuSlave):
             return self.refuse(f"fmi2DoStep refused: {self.failure}")
         if not (math.isfinite(step_size) and step_size > 0.0):
             return self.refuse(f"communication step size = {step_size!r} s is invalid: allowed a finite value > 0")
-        discontinuity = self.clock.discontinuity(current_time)
+        discontinuity = self.clock.discontinuity(current_time) or self.clock.past_stop(current_time, step_size)
         if discontinuity is not None:
             return self.refuse(discontinuity)
         bad_input = self.input_error()

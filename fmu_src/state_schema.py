@@ -29,7 +29,8 @@ class Spec:
 
 
 def refuse(path: str, value, allowed: str):
-    raise ValueError(f"state field '{path}' = {short_repr(value)} is invalid: allowed {allowed}")
+    raise ValueError(f"state {f'field {path!r}' if path else 'tree'} = {short_repr(value)} is invalid: allowed "
+                     f"{allowed}")
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,8 @@ class Real(Spec):
         number = isinstance(value, (int, float)) and not isinstance(value, bool)
         if not number or (self.finite and not math.isfinite(value)) or \
                 (math.isfinite(value) and not self.low <= value <= self.high):
-            refuse(path, value, f"a {'finite ' if self.finite else ''}number in [{self.low:g}, {self.high:g}]")
+            bounds = "" if (self.low, self.high) == (-math.inf, math.inf) else f" in [{self.low:g}, {self.high:g}]"
+            refuse(path, value, f"a {'finite ' if self.finite else ''}number{bounds}")
 
 
 @dataclass(frozen=True)
@@ -110,7 +112,7 @@ class Record(Spec):
             keys = sorted(value)[:8] if isinstance(value, dict) else type(value).__name__
             refuse(path, keys, f"a record of exactly the fields {', '.join(self.fields)}")
         for name, spec in self.fields.items():
-            spec.check(value[name], f"{path}.{name}", context)
+            spec.check(value[name], f"{path}.{name}" if path else name, context)
 
 
 @dataclass(frozen=True)
@@ -125,7 +127,7 @@ class Mapping(Spec):
             refuse(path, extra if isinstance(value, dict) else value,
                    f"a record of at most the {len(self.keys)} fields {', '.join(self.keys[:5])}, ...")
         for name, item in value.items():
-            self.value.check(item, f"{path}.{name}", context)
+            self.value.check(item, f"{path}.{name}" if path else name, context)
 
 
 @dataclass(frozen=True)
@@ -173,6 +175,6 @@ class Array(Spec):
 def check(spec: Spec, relations: tuple[Callable[[Any], None], ...], tree) -> None:
     """Raise ValueError naming the first field of `tree` that does not fit `spec`, then run the `relations`
     (functions of the tree that raise ValueError naming the fields that disagree)."""
-    spec.check(tree, "state", tree)
+    spec.check(tree, "", tree)
     for relation in relations:
         relation(tree)

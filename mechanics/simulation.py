@@ -38,18 +38,18 @@ from .windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZ
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
-# The work bound of one advance (docs/model.md §8.2): at most WORK_FLOOR + WORK_PER_MS per ms of the interval step
-# attempts (accepted or rejected). Measured (benchmarks/bench_work_bound.py) at the defaults: about 330 per ms; at
-# the extremes of the numerical parameters (max_step = 1e-8 s: 100 000; rtol 1e-10 with tolerance_scale 1e-3:
-# PLACEHOLDER): the bound is ten times the largest, and a state that cannot advance (a step size of 0 or 5e-324)
-# stops at it within seconds instead of spinning.
-WORK_FLOOR = 100_000
+# The work bound of one advance: at most WORK_FLOOR + `work_per_ms` step attempts (accepted or rejected) per ms of
+# the interval. Valid runs need (benchmarks/bench_work_bound.py) 70-220 per ms at 1500 rpm, about 520 at 30000 rpm
+# or at the tightest tolerances, and 100 000 with max_step at its minimum of 1e-8 s; the default, WORK_PER_MS, is
+# ten times that: a state that cannot advance (a step size of 0 or 5e-324, a time that does not move) stops at it
+# instead of spinning.
+WORK_FLOOR = 1000
 WORK_PER_MS = 1_000_000
 
 
-def work_bound(interval: float) -> int:
+def work_bound(interval: float, work_per_ms: float = WORK_PER_MS) -> int:
     """The most step attempts an advance over `interval` seconds may make."""
-    return WORK_FLOOR + math.ceil(WORK_PER_MS * min(interval, 1e9) * 1e3)
+    return WORK_FLOOR + math.ceil(work_per_ms * min(interval, 1e6) * 1e3)
 
 
 class History:
@@ -101,6 +101,7 @@ class Simulation:
     it itself).
     """
     warn_contact_law = True
+    work_per_ms = WORK_PER_MS            # the work bound (work_bound) of each advance
 
     def __init__(self, params: CompressorParameters | None = None, speed: SpeedLaw | None = None,
                  initial_angle: float = 0.02, keep_history: bool = True, table_speed_rpm: float | None = None):
@@ -257,7 +258,7 @@ class Simulation:
             self._speed_for_advance(float(end_time), speed_rpm, interpolate)
         if end_time == self.time:
             return
-        start, budget = self.time, work_bound(end_time - self.time)
+        start, budget = self.time, work_bound(end_time - self.time, self.work_per_ms)
         attempts = self.counters[ACCEPTED] + self.counters[REJECTED]
         while True:
             status, t, rows, records = run(
