@@ -318,7 +318,7 @@ def _check_built_model(tree) -> None:
                          f"{' and periodic-map values' if model['map_values'] else ''}")
     if model["simulation"] is not None:
         compressor_state.check_controls(model["simulation"], parameters)
-        compressor_state.check_window(model["simulation"])
+        compressor_state.check_rows(model["simulation"], parameters["pressure_model"])
 
 
 def _column_getter(owner, name, column):

@@ -14,7 +14,7 @@ import numpy as np
 from rotary_vane.mechanics.integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_PREVIOUS_ERROR, CONTROL_SIZE,
                                                CONTROL_SMALL_ERRORS, CONTROL_STEP, COUNTER_SIZE)
 from rotary_vane.mechanics.layout import MEMORY_SIZE, REAL_GAS_STATE_SIZE, VANE_STATE_SIZE
-from rotary_vane.mechanics.outputs import OUTPUT_SIZE
+from rotary_vane.mechanics.outputs import OUTPUT_INDEX, OUTPUT_SIZE, STEP_OUTPUTS
 from rotary_vane.mechanics.simulation import ARRAY_FIELDS, SimulationState
 from rotary_vane.mechanics.speed import SHAPES
 from rotary_vane.mechanics.windows import (MODE_KEYS, RECORD_SIZE, WINDOW_ACCUMULATORS, WINDOW_SIZE,
@@ -66,11 +66,12 @@ SIMULATION = schema.Record({
     "memory": _float_array(MEMORY_SIZE),
     "control": _float_array(CONTROL_SIZE, low=0.0),
     "abm_history": _float_array(ABM_HISTORY, _state_size),
-    # the lobe's start row is NaN until the first valley when the run started between two (windows.new_window)
+    # output rows have undefined (NaN) columns, and a window its whole start row until the first valley when the run
+    # started between two (windows.new_window): check_rows checks them
     "window": schema.Array("<f8", lambda tree: (WINDOW_SIZE,), finite=False),
     "run_dwell": _float_array(MODE_KEYS, low=0.0),
     "speed_law": _float_array(SPEED_LAW_SIZE),
-    "last_output": _float_array(OUTPUT_SIZE),
+    "last_output": schema.Array("<f8", lambda tree: (OUTPUT_SIZE,), finite=False),
     "counters": schema.Array("<i8", lambda tree: (COUNTER_SIZE,), 0, 2 ** 62),
     # the last 2z - 1 lobe records at most (Simulation._take_records); a revolution without gas delivered has
     # undefined (NaN) figures in its records, so these are not checked for finiteness
@@ -79,15 +80,34 @@ SIMULATION = schema.Record({
 MAP_RUN = schema.Record({name: schema.Real() for name in ("time", "angle", "speed_rpm", "work", "acceleration")})
 
 
-def check_window(simulation: dict) -> None:
-    """The open lobe window: its start row finite, or all NaN (a run that started between two valleys has no start
-    row until the first valley), everything after it finite."""
+def undefined_columns(pressure_model: str) -> np.ndarray:
+    """Which columns of an output row may be NaN (mechanics.outputs): those the pressure model does not fill, and the
+    penetrations and their rates (NaN for a region without a contact candidate)."""
+    mask = np.zeros(OUTPUT_SIZE, dtype=bool)
+    for output in STEP_OUTPUTS:
+        if pressure_model not in output.models or output.name in ("penetration", "penetration_rate"):
+            mask[[OUTPUT_INDEX[column] for column in output.columns()]] = True
+    return mask
+
+
+def check_rows(simulation: dict, pressure_model: str) -> None:
+    """The last output row and the open lobe window: NaN only where an output row may have no value
+    (undefined_columns), or in the whole start row of the window (a run that started between two valleys has none
+    until the first valley); everything else finite."""
+    undefined = undefined_columns(pressure_model)
+
+    def valid_row(row):
+        return np.isfinite(row[~undefined]).all() and not np.isinf(row[undefined]).any()
+
     window = simulation["window"]
-    start, rest = window[WINDOW_START:WINDOW_START + OUTPUT_SIZE], window[WINDOW_ACCUMULATORS:]
-    if not (np.isfinite(start).all() or np.isnan(start).all()) or not np.isfinite(rest).all():
-        raise ValueError(f"state field 'model.simulation.window' holds {int((~np.isfinite(window)).sum())} values "
-                         f"that are not finite: allowed a finite window, or one whose whole start row (the first "
-                         f"{OUTPUT_SIZE} values) is NaN")
+    start = window[WINDOW_START:WINDOW_START + OUTPUT_SIZE]
+    for name, valid in (("last_output", valid_row(simulation["last_output"])),
+                        ("window", (valid_row(start) or np.isnan(start).all())
+                         and np.isfinite(window[WINDOW_ACCUMULATORS:]).all())):
+        if not valid:
+            raise ValueError(f"state field 'model.simulation.{name}' holds values that are not finite where the "
+                             f"{pressure_model} model always has one: allowed NaN only in the columns it leaves "
+                             f"undefined{' or in the whole start row' if name == 'window' else ''}")
 
 
 def check_controls(simulation: dict, parameters: dict) -> None:
