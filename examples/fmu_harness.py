@@ -228,8 +228,8 @@ def add_common_options(parser: argparse.ArgumentParser, script: str) -> None:
     parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR,
                         help="folder of RotaryVaneCompressor.fmu and DriveMotor.fmu; they are built there "
                              "(python -m rotary_vane.fmu_src.build --out DIR) if missing or stale, i.e. if the private package "
-                             "name rotary_vane_<version>_<source hash>_<model> bundled in an FMU differs from the one of "
-                             "the current sources")
+                             "name rotary_vane_<version>_<source hash>_<model> bundled in an FMU differs from the "
+                             "one of the current sources")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT_ROOT / script,
                         help="folder for the CSV, PNG and summary files")
     parser.add_argument("--verbose", action="store_true",

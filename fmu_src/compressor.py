@@ -171,12 +171,14 @@ class CompressorSlave(GuardedSlave):
         self._report_kernel_misses()
 
     def _report_kernel_misses(self):
-        """fmi2Warning, once per kernel and process, for a kernel that this FMU ships compiled and that numba did not
-        find among them (it then loads it from, or compiles it into, the user's cache: up to 30 s)."""
+        """A message (fmi2OK, as the refusal of the shipped kernels: a matter of time, not of results; on stderr and,
+        with debug logging, in the logger), once per kernel and process, for a kernel that numba did not find among
+        the usable shipped ones (it then loads it from, or compiles it into, the user's cache: seconds to 30 s). The
+        kernels that only a failed step's diagnosis calls are not shipped."""
         misses = shipped_kernel_misses()
         if misses:
             self.report(f"{'; '.join(misses)[:1500]}: numba loads them from, or compiles them into, {cache_root()} "
-                        f"(up to 30 s, once per machine)", Fmi2Status.warning)
+                        f"(seconds to 30 s, once per machine)", Fmi2Status.ok)
 
     def _build(self, params, speed_rpm):
         """The model of `params` at its start (the speed is the input at the start time)."""

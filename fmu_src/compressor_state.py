@@ -115,7 +115,7 @@ def check_controls(simulation: dict, parameters: dict) -> None:
     within what the step-size rules can leave (at most 10 max_step after a DOPRI5 step, a rejection below min_step
     stops the run), the ABM4 history count and small-error count in their ranges, the previous error estimate 0
     (none yet) or in [1e-4, 1]; the speed law of a known shape."""
-    control, law = simulation["control"], simulation["speed_law"]
+    control, law = simulation["control"].tolist(), simulation["speed_law"].tolist()
     step, low, high = control[CONTROL_STEP], 1e-3 * parameters["min_step"], 10.0 * parameters["max_step"]
     if not low <= step <= high:
         raise ValueError(f"state field 'control[step]' = {step!r} s is invalid: allowed [{low:g}, {high:g}] s "
@@ -128,5 +128,5 @@ def check_controls(simulation: dict, parameters: dict) -> None:
     if not (error == 0.0 or 1e-4 <= error <= 1.0):
         raise ValueError(f"state field 'control[previous_error]' = {error!r} is invalid: allowed 0 or [1e-4, 1]")
     if law[0] not in SHAPES.values() or law[5] < 0.0:
-        raise ValueError(f"state field 'speed_law' = {law.tolist()!r} is invalid: allowed a shape in "
+        raise ValueError(f"state field 'speed_law' = {law!r} is invalid: allowed a shape in "
                          f"{sorted(SHAPES.values())} and a duration >= 0 s")

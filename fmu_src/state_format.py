@@ -129,7 +129,8 @@ def decode(blob: bytes, model: str, fingerprint: str):
             return [value(item, depth + 1) for item in entry]
         if isinstance(entry, dict) and set(entry) == {"d"} and isinstance(entry["d"], dict):
             return {key: value(item, depth + 1) for key, item in entry["d"].items()}
-        if isinstance(entry, dict) and set(entry) == {"f"} and isinstance(entry["f"], str) and entry["f"] in NON_FINITE:
+        if isinstance(entry, dict) and set(entry) == {"f"} and isinstance(entry["f"], str) \
+                and entry["f"] in NON_FINITE:
             return NON_FINITE[entry["f"]]
         if isinstance(entry, dict) and "a" in entry:
             return _array(entry, data)

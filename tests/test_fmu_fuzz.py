@@ -253,7 +253,8 @@ def craft_blob(blob: bytes, edit) -> bytes:
     """`blob` (fmu_src/state_format.py) with one edit of its content, its length and CRC-32 recomputed so that the
     envelope is valid: ["set", path, value] sets the JSON node at `path` (keys of the state tree) to `value` (raw
     JSON: {"f": "nan"} is a NaN, {"f": []} a malformed node); ["nan", path, index] writes NaN into element `index`
-    of the array at `path`, ["step", path, value] the value into its first element; ["entries", path, n] sets the dict at `path` to n entries k0..k{n-1} = 0.0."""
+    of the array at `path`, ["step", path, value] the value into its first element; ["entries", path, n] sets the
+    dict at `path` to n entries k0..k{n-1} = 0.0."""
     import struct
     import zlib
     header, payload = blob[:96], blob[96:]
