@@ -1,14 +1,16 @@
 """Build the FMUs: `python -m rotary_vane.fmu_src.build [--out build/fmu]`.
 
 Each FMU bundles this project's packages (`thermo`, `mechanics`, `fmu_src`) under a private package name made
-of the version and a hash of the sources, with their imports rewritten to it (as pip's vendoring does), so that
-a host that has already imported another `mechanics` or `thermo`, or another version of this project, still
-runs the FMU's own code. The entry module pythonfmu loads is generated here; the FMU also carries
+of the version, a hash of the sources and the model identifier, with their imports rewritten to it (as pip's
+vendoring does), so that a host that has already imported another `mechanics` or `thermo`, another version of
+this project or another FMU of this project (the motor beside the compressor), still runs the FMU's own code,
+imported from the FMU's own resources folder. The entry module pythonfmu loads is generated here; the FMU also carries
 `documentation/index.html` and `resources/requirements.txt`, and is built with `--handle-state --serialize-state`.
 
-The bundle also carries its kernels compiled for a portable CPU (`compiled_kernels/`, thermo.compile_cache), made
-by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_* settings are not used);
-`--no-kernels` leaves them out (a smaller FMU whose first run compiles them).
+The compressor's bundle also carries its kernels compiled for a portable CPU (`compiled_kernels/`,
+thermo.compile_cache), made by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_*
+settings are not used); `--no-kernels` leaves them out (a smaller FMU whose first run compiles them). The motor
+calls no kernel (plain Python), so its bundle ships none.
 """
 from __future__ import annotations
 
@@ -34,9 +36,9 @@ from .status_shim import install as install_status_shim
 from .slave import VERSION
 
 PROJECT_DIR = Path(__file__).resolve().parent.parent
-MODELS = {  # model identifier -> (module in fmu_src, slave class)
-    "RotaryVaneCompressor": ("compressor", "CompressorSlave"),
-    "DriveMotor": ("motor", "MotorSlave"),
+MODELS = {  # model identifier -> (module in fmu_src, slave class, whether the FMU ships compiled kernels)
+    "RotaryVaneCompressor": ("compressor", "CompressorSlave", True),
+    "DriveMotor": ("motor", "MotorSlave", False),
 }
 IMPORT_PATTERN = re.compile(r"^(\s*)(from|import) rotary_vane\.(" + "|".join(PROJECT_PACKAGES) + r")\b", re.MULTILINE)
 
@@ -55,8 +57,9 @@ fmi2Instantiate without owning it (without it a second instance in the same proc
 if "{model}" not in globals():
     import os as _os
     import sys as _sys
-    # another FMU of the same build may have imported the bundle from its own folder, which its host may have
-    # deleted since (fmpy's simulate_fmu does): let the imported packages find their modules here too
+    # the package name is this FMU's own (model and sources): only this same FMU, unpacked into another folder
+    # that its host may have deleted since (fmpy's simulate_fmu called twice does), may have imported it before:
+    # let the imported packages find their modules here too
     for _name in [_n for _n in _sys.modules if _n == "{private}" or _n.startswith("{private}.")]:
         _path = getattr(_sys.modules[_name], "__path__", None)
         _folder = _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), *_name.split("."))
@@ -72,9 +75,9 @@ globals().setdefault("_PYTHONFMU_GLOBALS_REFERENCES", []).append(globals())
 '''
 
 
-def private_package_name() -> str:
-    """rotary_vane_<version>_<source hash>: unique per version of the sources."""
-    return f"rotary_vane_{VERSION.replace('.', '_')}_{source_hash(PROJECT_DIR)[:10]}"
+def private_package_name(model: str) -> str:
+    """rotary_vane_<version>_<source hash>_<model identifier>: unique per FMU and version of the sources."""
+    return f"rotary_vane_{VERSION.replace('.', '_')}_{source_hash(PROJECT_DIR)[:10]}_{model}"
 
 
 def vendor(destination: Path, private: str) -> Path:
@@ -189,45 +192,53 @@ def build(out_dir: Path, map_file: Path | None = None, kernels: bool = True) -> 
     """Write every FMU of MODELS into out_dir (the compressor with the periodic-map table of `map_file` if given,
     with the compiled kernels unless `kernels` is false); return their paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    private = private_package_name()
-    built = []
     with tempfile.TemporaryDirectory(prefix="rvc_fmu_") as temporary:
-        staging = Path(temporary)
-        package = vendor(staging, private)
-        requirements = bundled_requirements([package])
-        shipped = ship_kernels(staging, private) if kernels else (
-            "The first run on a machine compiles the numerical kernels (about 30 s, once); they are cached in "
-            "~/.cache/rotary-vane-compressor/numba (or $ROTARY_VANE_CACHE_DIR).")
-        (staging / "requirements.txt").write_text("\n".join(requirements) + "\n")
-        sys.path.insert(0, str(staging))
-        try:
-            if map_file is not None:
-                ship_map(private, map_file)
-            for model, (module, cls) in MODELS.items():
-                slave_class = getattr(__import__(f"{private}.fmu_src.{module}", fromlist=[cls]), cls)
-                entry = staging / f"{private}_{model}.py"     # unique module name per version
-                entry.write_text(ENTRY_MODULE.format(model=model, private=private, module=module, cls=cls,
-                                                     description=slave_class.__doc__))
-                documentation = staging / f"documentation_{model}"
-                documentation.mkdir()
-                (documentation / "index.html").write_text(documentation_html(model, slave_class, requirements,
-                                                                                shipped))
-                fmu = FmuBuilder.build_FMU(
-                    entry, dest=out_dir / f"{model}.fmu", project_files=[package, staging / "requirements.txt"],
-                    documentation_folder=documentation, canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-                reason = install_status_shim(Path(fmu), model, f"{model}/{private}")
-                if reason is not None:
-                    print(f"warning: {model}.fmu keeps pythonfmu's binary because the FMI status shim could not be "
-                          f"built ({reason.strip()}); {model}.fmu runs, but {SHIM_DEGRADED}", file=sys.stderr)
-                built.append(Path(fmu))
-        finally:
-            sys.path.remove(str(staging))
-            for name in [m for m in sys.modules if m == private or m.startswith(private + ".")]:
-                del sys.modules[name]
+        built = [build_one(Path(temporary) / model, out_dir, model, map_file, kernels) for model in MODELS]
     systems = PROJECT_DIR / "fmu_src" / "systems"       # OSP and SSP system files: they run next to the FMUs
     for system in [*systems.glob("*.xml"), *systems.glob("*.ssd")]:
         shutil.copy(system, out_dir)
     return built
+
+
+def build_one(staging: Path, out_dir: Path, model: str, map_file: Path | None, kernels: bool) -> Path:
+    """The FMU `model` in out_dir, staged in the new folder `staging` with its own bundle (private_package_name);
+    the compressor with the table of `map_file` and, if `kernels`, its compiled kernels."""
+    module, cls, has_kernels = MODELS[model]
+    private = private_package_name(model)
+    staging.mkdir()
+    package = vendor(staging, private)
+    requirements = bundled_requirements([package])
+    if not has_kernels:
+        shipped = "It calls no compiled kernel."
+    elif kernels:
+        shipped = ship_kernels(staging, private)
+    else:
+        shipped = ("The first run on a machine compiles the numerical kernels (about 30 s, once); they are cached "
+                   "in ~/.cache/rotary-vane-compressor/numba (or $ROTARY_VANE_CACHE_DIR).")
+    (staging / "requirements.txt").write_text("\n".join(requirements) + "\n")
+    sys.path.insert(0, str(staging))
+    try:
+        if map_file is not None and has_kernels:
+            ship_map(private, map_file)
+        slave_class = getattr(__import__(f"{private}.fmu_src.{module}", fromlist=[cls]), cls)
+        entry = staging / f"{private}_entry.py"          # unique module name per FMU and version
+        entry.write_text(ENTRY_MODULE.format(model=model, private=private, module=module, cls=cls,
+                                             description=slave_class.__doc__))
+        documentation = staging / f"documentation_{model}"
+        documentation.mkdir()
+        (documentation / "index.html").write_text(documentation_html(model, slave_class, requirements, shipped))
+        fmu = Path(FmuBuilder.build_FMU(
+            entry, dest=out_dir / f"{model}.fmu", project_files=[package, staging / "requirements.txt"],
+            documentation_folder=documentation, canGetAndSetFMUstate=True, canSerializeFMUstate=True))
+        reason = install_status_shim(fmu, model, f"{model}/{private}")
+        if reason is not None:
+            print(f"warning: {model}.fmu keeps pythonfmu's binary because the FMI status shim could not be "
+                  f"built ({reason.strip()}); {model}.fmu runs, but {SHIM_DEGRADED}", file=sys.stderr)
+    finally:
+        sys.path.remove(str(staging))
+        for name in [m for m in sys.modules if m == private or m.startswith(private + ".")]:
+            del sys.modules[name]
+    return fmu
 
 
 def main(argv=None) -> int:

@@ -29,8 +29,6 @@ SYSTEM_STEPS = 40
 MOTOR_RECORD = ("shaft_speed", "motor_torque", "electrical_power", "electrical_energy", "motor_work", "shaft_angle")
 COMPRESSOR_RECORD = ("shaft_torque_mean", "shaft_work", "shaft_angle")
 SYSTEM_RECORD = [f"motor::{n}" for n in MOTOR_RECORD] + [f"compressor::{n}" for n in COMPRESSOR_RECORD]
-NEEDS_SAFE_GLUE = pytest.mark.xfail(strict=True, reason="needs the safe-glue branch (kernel cache compared after "
-                                                        "realpath: Ecos hands the FMU //tmp/...)")
 
 ECOS_STRUCTURE = """
 import fmu_helpers as H, ecos_host
@@ -171,7 +169,6 @@ def test_refused_parameter_reaches_the_user(fmus):
     assert message in run.stderr, run.stderr[-3000:]
 
 
-@NEEDS_SAFE_GLUE
 def test_first_step_in_ecos_compiles_no_kernel(fmus):
     """Initialization and the first step of the compressor in Ecos take seconds, not the minute numba needs to
     compile the kernels: the FMU loads the kernels it ships (README "Running the FMU in other hosts")."""

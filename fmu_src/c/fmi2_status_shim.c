@@ -512,10 +512,18 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size
     /* the slave gives a state whose content it refused the serialized size 0 (fmu_src/slave.py) */
     size_t probe = 0;
     if (inner_fmi2SerializedFMUstateSize(shim->inner, *state, &probe) == fmi2OK && probe == 0) {
+        /* pythonfmu decodes on the class, where no logger is reachable: handing the refused state to the instance
+         * makes the slave log the reason (with fmi2Error, changing nothing), which this call then carries */
+        shim->worst_logged = fmi2OK;
+        shim->first_error[0] = '\0';
+        inner_fmi2SetFMUstate(shim->inner, *state);
         inner_fmi2FreeFMUstate(shim->inner, state);
         *state = NULL;
-        return refuse(shim, "fmi2DeSerializeFMUstate", "fmi2DeSerializeFMUstate: the bytes have this FMU's envelope "
-                      "but their content is not a state of this build (the reason is on stderr); nothing was read");
+        char refusal[sizeof shim->first_error + 160];
+        snprintf(refusal, sizeof refusal, "fmi2DeSerializeFMUstate: the bytes have this FMU's envelope but their "
+                 "content is not a state of this build (%s); nothing was read",
+                 shim->first_error[0] ? shim->first_error : "the model gave no reason");
+        return refuse(shim, "fmi2DeSerializeFMUstate", refusal);
     }
     return handed_out(shim, "fmi2DeSerializeFMUstate", status, state, shim->mode);
 }
