@@ -50,6 +50,24 @@ VERSION = "0.1.0"
 INSTANTIATED, INITIALIZATION_MODE, INITIALIZED, TERMINATED = ("instantiated", "initialization mode", "initialized",
                                                               "terminated")
 PHASES = (INSTANTIATED, INITIALIZATION_MODE, INITIALIZED, TERMINATED)
+# FMI 2.0's co-simulation state machine as one table (the standard's §4.2.4; the Modelica Reference-FMUs keep it so
+# too): for each call, the states it is allowed in and the state a successful call leaves (None: unchanged).
+# fmi2Get*/fmi2Set* stand for every getter and setter of a variable. The error state is the shim's
+# (fmu_src/c/fmi2_status_shim.c), which also answers the status inquiries.
+CALL_STATES = {
+    "fmi2SetupExperiment": ((INSTANTIATED,), None),
+    "fmi2EnterInitializationMode": ((INSTANTIATED,), INITIALIZATION_MODE),
+    "fmi2ExitInitializationMode": ((INITIALIZATION_MODE,), INITIALIZED),
+    "fmi2Terminate": ((INITIALIZED,), TERMINATED),
+    "fmi2DoStep": ((INITIALIZED,), None),
+    "fmi2Get*": ((INITIALIZATION_MODE, INITIALIZED, TERMINATED), None),
+    "fmi2Set*": ((INSTANTIATED, INITIALIZATION_MODE, INITIALIZED), None),
+}
+
+
+def call_rule(function: str) -> tuple[tuple[str, ...], str | None]:
+    """(states `function` is allowed in, state after it succeeds) from CALL_STATES."""
+    return CALL_STATES.get(function) or CALL_STATES[function[:7] + "*"]
 CONTINUITY_ULPS = 16          # a communication point continues if within 16 ulp of the previous point + step size
 STOP_SLACK = 1e-6             # a step may end past stopTime by this fraction of its size (a master's rounding)
 
@@ -221,16 +239,23 @@ class GuardedSlave(PythonFmuSlave):
         self.report(message, status)
         return False
 
-    def wrong_state(self, function: str, allowed: tuple[str, ...]) -> str | None:
-        """The refusal of `function` if the current state is not one of `allowed`, else None."""
+    def wrong_state(self, function: str) -> str | None:
+        """The refusal of `function` if CALL_STATES does not allow it in the current state, else None."""
+        allowed = call_rule(function)[0]
         if self.phase in allowed:
             return None
         return (f"{function} is not allowed in the {self.phase} state (allowed in: {', '.join(allowed)}); "
                 f"nothing was done")
 
+    def complete(self, function: str) -> None:
+        """`function` succeeded: move to the state CALL_STATES gives for it."""
+        after = call_rule(function)[1]
+        if after is not None:
+            self.phase = after
+
     # FMI callbacks ----------------------------------------------------------------------------------------
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
-        refusal = self.wrong_state("fmi2SetupExperiment", (INSTANTIATED,))
+        refusal = self.wrong_state("fmi2SetupExperiment")
         if refusal is not None:
             return self.report(refusal)
         if not math.isfinite(start_time):
@@ -242,14 +267,14 @@ class GuardedSlave(PythonFmuSlave):
         self.clock = Clock(start_time, stop_time)
 
     def enter_initialization_mode(self):
-        refusal = self.wrong_state("fmi2EnterInitializationMode", (INSTANTIATED,))
+        refusal = self.wrong_state("fmi2EnterInitializationMode")
         if refusal is not None:
             return self.report(refusal)
-        self.phase = INITIALIZATION_MODE
+        self.complete("fmi2EnterInitializationMode")
 
     @guarded
     def exit_initialization_mode(self):
-        refusal = self.wrong_state("fmi2ExitInitializationMode", (INITIALIZATION_MODE,))
+        refusal = self.wrong_state("fmi2ExitInitializationMode")
         if refusal is not None:
             return self.report(refusal)
         before = self.snapshot()
@@ -260,18 +285,18 @@ class GuardedSlave(PythonFmuSlave):
             return self.report(f"initialization refused: {blame_changed(str(error), self.changed_parameters())}"
                                if isinstance(error, ValueError) else
                                f"initialization failed ({type(error).__name__}: {str(error)[:400]})")
-        self.phase = INITIALIZED
+        self.complete("fmi2ExitInitializationMode")
         self.clock = Clock(self.clock.start_time, self.clock.stop_time)
 
     def terminate(self):
-        refusal = self.wrong_state("fmi2Terminate", (INITIALIZED,))
+        refusal = self.wrong_state("fmi2Terminate")
         if refusal is not None:
             return self.report(refusal)
-        self.phase = TERMINATED
+        self.complete("fmi2Terminate")
 
     @guarded
     def do_step(self, current_time, step_size):
-        refusal = self.wrong_state("fmi2DoStep", (INITIALIZED,))
+        refusal = self.wrong_state("fmi2DoStep")
         if refusal is not None:
             return self.refuse(refusal)
         if self.failure is not None:
@@ -388,9 +413,7 @@ class GuardedSlave(PythonFmuSlave):
     # variable access: pythonfmu raises on unknown references or wrong types, which would be fmi2Fatal -----------
     def _refused_access(self, function: str, references, kind: type, setting: bool) -> str | None:
         """Why `function` may not access `references` now (then nothing is read or written), or None."""
-        allowed = (INSTANTIATED, INITIALIZATION_MODE, INITIALIZED) if setting else \
-            (INITIALIZATION_MODE, INITIALIZED, TERMINATED)
-        refusal = self.wrong_state(function, allowed)
+        refusal = self.wrong_state(function)
         if refusal is not None:
             return refusal
         for reference in references:
