@@ -41,6 +41,7 @@ CONTROL_SIZE = 4
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
+TIME_RESOLUTION = 16.0 * np.finfo(np.float64).eps      # the smallest step relative to the time (smallest_step)
 
 # Dormand-Prince 5(4) (Hairer, Norsett, Wanner, Solving ODEs I, Table 5.2): nodes C, coefficients A (the last row
 # is the 5th-order solution B: first same as last), error weights E = B - B_hat.
@@ -380,6 +381,14 @@ def _cross_valley(t, y, memory, ctx, real_gas):
 
 
 @kernel
+def smallest_step(t, m):
+    """h_min = 16 eps max(|t|, T_c) (docs/model.md §8.2): the step below which t + h no longer differs from t by
+    more than a few units of rounding, so the error control cannot be met by any smaller step; the contact period
+    T_c (mechanics.machine.contact_period) is the time scale near t = 0."""
+    return TIME_RESOLUTION * max(abs(t), m.contact_period)
+
+
+@kernel
 def _step_rejected(err, failure, out, memory, m):
     """A step is rejected when its error is too large, its state invalid, or a contact opened too deep."""
     return err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m)
@@ -427,7 +436,7 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
             counters[REJECTED] += 1
             rejected_last = True
             control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
-            if control[CONTROL_STEP] < m.min_step:
+            if control[CONTROL_STEP] < smallest_step(t, m):
                 if failure != 0:
                     return failure, t, rows, records
                 return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records

@@ -125,7 +125,6 @@ class CompressorParameters:
     tolerance_scale: float = _number(1.0, "1", 1e-3, 10.0,
                                      "factor on all absolute tolerances of docs/model.md §8.2 (positions 1e-9 m, ...)")
     initial_step: float = _number(1e-6, "s", 1e-10, 2e-4, "first step size h_0")
-    min_step: float = _number(1e-9, "s", 1e-14, 1e-8, "smallest step h_min; below it the run stops with an error")
     max_step: float = _number(2e-5, "s", 1e-8, 2e-4, "largest step h_max")
     max_onset_penetration: float = _number(1e-6, "m", 1e-9, 1e-4,
                                            "largest penetration allowed in the step where a contact opens")
@@ -254,10 +253,8 @@ def _validate_relations(params: CompressorParameters) -> None:
         _reject("end_valley_leak_law", p.end_valley_leak_law,
                 "nozzle or sealed with pressure_model 'ideal_gas_table' (the friction-corrected law needs the "
                 "fluid's viscosity: pressure_model 'real_gas')")
-    if p.min_step >= p.max_step:
-        _reject("min_step", p.min_step, f"< max_step = {p.max_step:g} s")
-    if not p.min_step <= p.initial_step <= p.max_step:
-        _reject("initial_step", p.initial_step, f"in [min_step, max_step] = [{p.min_step:g}, {p.max_step:g}] s")
+    if p.initial_step > p.max_step:
+        _reject("initial_step", p.initial_step, f"<= max_step = {p.max_step:g} s")
     if p.stroke >= p.base_radius:
         _reject("stroke", p.stroke, f"< rotor_radius - vane_thickness/2 = {p.base_radius:g} m")
     if p.slot_width >= p.rotor_radius:
