@@ -298,6 +298,60 @@ def _validate_relations(params: CompressorParameters) -> None:
                 f"{p.vane_length:g} m, must clear the slot bottom)")
 
 
+def _lobe_angle(values) -> float:
+    return 2.0 * math.pi / values["lobes"]
+
+
+def _thickest_vane(values) -> float:
+    """t + c_R < R_r, and room for the shortest declared stroke: R_m - t > h_lo, i.e. (t + h_lo)^2 + (t + c_R)^2/4
+    < R_r^2, a quadratic in t."""
+    radius, clearance = values["rotor_radius"], values["slot_clearance"]
+    shortest_stroke = _declared("stroke")[1]["min"]
+    a, b = 1.25, 2.0 * shortest_stroke + 0.5 * clearance
+    c = shortest_stroke ** 2 + 0.25 * clearance ** 2 - radius ** 2
+    return min(radius - clearance, (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a))
+
+
+def _longest_stroke(values) -> float:
+    """stroke < R0 (the valley) and stroke < R_m - t (a vane long enough to stay engaged must clear r_sb >= 0)."""
+    half_width = 0.5 * (values["vane_thickness"] + values["slot_clearance"])
+    mouth = math.sqrt(values["rotor_radius"] ** 2 - half_width ** 2)
+    return min(values["rotor_radius"] - 0.5 * values["vane_thickness"], mouth - values["vane_thickness"])
+
+
+def _vane_length_range(values) -> tuple:
+    """[one thickness engaged at full stroke, R_r): below R_r the vane bottom at rest clears some r_sb >= 0."""
+    tip = 0.5 * values["vane_thickness"]
+    half_width = 0.5 * (values["vane_thickness"] + values["slot_clearance"])
+    mouth = math.sqrt(values["rotor_radius"] ** 2 - half_width ** 2)
+    base = values["rotor_radius"] - tip
+    return base + values["stroke"] - mouth + values["vane_thickness"] + tip, values["rotor_radius"]
+
+
+# The range the relations of `_validate_relations` leave one parameter once those it depends on are known, in an
+# order in which each comes after the ones it depends on: (name, bounds(values) -> (low, high) for a number, None
+# for either end at its declaration; or the allowed choices). A sampler draws the other parameters over their
+# declared ranges, then these in this order within their bounds, and so lands in the valid region without
+# rejection except for the relations with no closed form: the stator regularity (mechanics.geometry) and the
+# fluid's range (CoolProp). tests/test_parameters.py checks each bound against validation.
+RELATION_BOUNDS = (
+    ("discharge_pressure", lambda v: (math.nextafter(v["suction_pressure"], math.inf), None)),
+    ("end_valley_leak_law", lambda v: tuple(law for law in LEAKAGE_LAWS if law != "friction_corrected"
+                                            or v["pressure_model"] != "ideal_gas_table")),
+    ("initial_step", lambda v: (None, v["max_step"])),
+    ("vane_thickness", lambda v: (None, _thickest_vane(v))),
+    ("stroke", lambda v: (None, _longest_stroke(v))),
+    ("vane_length", _vane_length_range),
+    ("slot_bottom_radius", lambda v: (None, v["rotor_radius"] - v["vane_length"])),
+    ("friction_velocity_full", lambda v: (v["friction_velocity"], None) if v["friction_model"] == "ambrosio"
+     else (None, None)),
+    ("suction_close_angle", lambda v: (None, _lobe_angle(v))),
+    ("bottom_dwell", lambda v: (None, _lobe_angle(v)) if v["displacement_law"] == "harmonic_dwell" else (None, None)),
+    ("top_dwell", lambda v: (None, _lobe_angle(v) - v["bottom_dwell"]) if v["displacement_law"] == "harmonic_dwell"
+     else (None, None)),
+)
+
+
 def _declared(name: str):
     """(default, metadata) of one parameter."""
     return next((default, meta) for field_name, default, meta in declarations() if field_name == name)
