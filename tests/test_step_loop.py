@@ -28,7 +28,7 @@ def parameters_of(function) -> list[str]:
 
 
 def test_the_loop_names_no_method_and_every_method_has_every_hook():
-    """A new method is its hooks and a line in each dispatcher: the loop names no method and no method's code, and
+    """A new method is its hooks and a line in each dispatcher (docs/model.md §14.5): the loop names no method, and
     every method's hook takes the dispatcher's arguments (the dispatcher passes them on unchanged)."""
     loop_names = names_in(integrators.advance)
     assert not {name for name in loop_names if any(m in name.lower() for m in METHODS)}, loop_names
