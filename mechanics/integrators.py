@@ -326,7 +326,7 @@ def abm4_after_acceptance(control, step, err, event, restart, rejected_last, his
     control[CONTROL_SMALL_ERRORS] = small_errors
 
 
-@kernel
+@kernel(inline=True)
 def method_begin(code, control, history, work, n):
     if code == ABM4:
         abm4_begin(control, history, work, n)
@@ -334,28 +334,28 @@ def method_begin(code, control, history, work, n):
         dopri5_begin(control, history, work, n)
 
 
-@kernel
+@kernel(inline=True)
 def method_bounded_step(code, h, m):
     if code == ABM4:
         return abm4_bounded_step(h, m)
     return dopri5_bounded_step(h, m)
 
 
-@kernel
+@kernel(inline=True)
 def method_attempt(code, t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
     if code == ABM4:
         return abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
     return dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
 
 
-@kernel
+@kernel(inline=True)
 def method_after_rejection(code, control, step, err, finite):
     if code == ABM4:
         return abm4_after_rejection(control, step, err, finite)
     return dopri5_after_rejection(control, step, err, finite)
 
 
-@kernel
+@kernel(inline=True)
 def method_after_acceptance(code, control, step, err, event, restart, rejected_last, history, work, n, m, counters):
     if code == ABM4:
         abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
