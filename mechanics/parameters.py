@@ -312,20 +312,22 @@ def _thickest_vane(values) -> float:
     return min(radius - clearance, (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a))
 
 
+def _mouth_radius(values) -> float:
+    """R_m = sqrt(R_r^2 - (w/2)^2) of drawn values (CompressorParameters.mouth_radius)."""
+    return math.sqrt(values["rotor_radius"] ** 2 - (0.5 * (values["vane_thickness"] + values["slot_clearance"])) ** 2)
+
+
 def _longest_stroke(values) -> float:
     """stroke < R0 (the valley) and stroke < R_m - t (a vane long enough to stay engaged must clear r_sb >= 0)."""
-    half_width = 0.5 * (values["vane_thickness"] + values["slot_clearance"])
-    mouth = math.sqrt(values["rotor_radius"] ** 2 - half_width ** 2)
-    return min(values["rotor_radius"] - 0.5 * values["vane_thickness"], mouth - values["vane_thickness"])
+    return min(values["rotor_radius"] - 0.5 * values["vane_thickness"],
+               _mouth_radius(values) - values["vane_thickness"])
 
 
 def _vane_length_range(values) -> tuple:
-    """[one thickness engaged at full stroke, R_r): below R_r the vane bottom at rest clears some r_sb >= 0."""
-    tip = 0.5 * values["vane_thickness"]
-    half_width = 0.5 * (values["vane_thickness"] + values["slot_clearance"])
-    mouth = math.sqrt(values["rotor_radius"] ** 2 - half_width ** 2)
-    base = values["rotor_radius"] - tip
-    return base + values["stroke"] - mouth + values["vane_thickness"] + tip, values["rotor_radius"]
+    """[one thickness engaged at full stroke, R_r): R0 + h - (l_v - rho) <= R_m - t, and below R_r the vane bottom
+    at rest clears some r_sb >= 0."""
+    return values["rotor_radius"] + values["stroke"] - _mouth_radius(values) + values["vane_thickness"], \
+        values["rotor_radius"]
 
 
 # The range the relations of `_validate_relations` leave one parameter once those it depends on are known, in an
