@@ -16,7 +16,7 @@ peak force whatever the tolerance: the chaotic floor, taken per clearance and fi
 tight settings (rtol <= 3e-6, any max_step). A setting "meets the bounds" when, for every clearance, powers and eta_m are within
 max(0.05 %, 2 x noise, floor) and the peak force within max(1 %, 2 x noise, floor) of the rtol 1e-9 run. The absolute tolerances stay at their physical values
 (docs/model.md §8.2: positions 1e-9 m, ...; scaling them with rtol lets contacts close micrometres deep and the
-step fall below min_step). A run that stops is reported as failed. The cheapest setting that meets the bounds is printed per integrator and pressure model, and the cheapest that
+step fall below 1 ns). A run that stops is reported as failed. The cheapest setting that meets the bounds is printed per integrator and pressure model, and the cheapest that
 meets them for all four; cost is counted in integration steps per revolution (summed over the clearances), which
 the wall time follows within the noise of a shared machine. The runs fan out over worker processes with dask.
 """

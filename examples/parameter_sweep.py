@@ -7,9 +7,12 @@ Points (all from the declarations in mechanics.parameters, so a new parameter is
   a few fluids, and the shaft speed at its ends, the others at their defaults;
 * `--random N` points with every parameter drawn at once (fixed seed): numbers uniform over their range, or
   log-uniform where the range spans more than two decades and starts above 0; choices uniform; speed log-uniform.
-  Independent draws mostly break a relation between parameters (discharge above suction pressure, a vane that
-  fits its slot, ...), so candidates are drawn until N pass validation; the refused candidates are counted by the
-  parameter their error names (a refusal that names none is kept as a point, and fails).
+  A parameter that a relation ties to others (discharge above suction pressure, a vane that fits its slot, ...)
+  is drawn within the range the ones drawn before it allow (mechanics.parameters.RELATION_BOUNDS), so nearly every
+  draw is valid; the relations with no closed form (the stator regularity, the fluid's range) still refuse some.
+  Candidates are drawn until N pass validation and the library's up-front estimate of one revolution
+  (mechanics.run_cost) fits the budget; the others are counted by the parameter their error names, or as "no room"
+  or "announced over budget" (a refusal that names no parameter is kept as a point, and fails).
 
 Each point builds `CompressorParameters` (a ValueError there is a *refusal*: its message must name a parameter),
 starts on a valley and runs one revolution at constant speed (at 0 rpm: 10 ms at standstill), then checks every
@@ -34,6 +37,8 @@ import numpy as np
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from rotary_vane.mechanics.outputs import OUTPUT_NAMES, REAL_GAS_COLUMNS
+from rotary_vane.mechanics.parameters import RELATION_BOUNDS
+from rotary_vane.mechanics.run_cost import revolution_cost
 from rotary_vane.mechanics.performance import revolutions
 
 MAX_SPEED_RPM = 30000.0              # the FMU's declared shaft_speed maximum (fmu_src.compressor.MAX_SHAFT_SPEED)
@@ -61,44 +66,67 @@ def one_at_a_time() -> list[dict]:
     return points
 
 
-def random_points(count: int, seed: int = SEED) -> list[dict]:
-    """`count` points with every parameter drawn at once (module docstring)."""
+def _draw(rng, meta: dict, low: float | None = None, high: float | None = None):
+    """One value of a numeric parameter in [low, high] (default: its declared ends): integers uniform, numbers
+    log-uniform where the declared range spans more than two decades and starts above 0, else uniform."""
+    low = meta["min"] if low is None else max(low, meta["min"])
+    high = meta["max"] if high is None else min(high, meta["max"])
+    if meta["integer"]:
+        return int(rng.integers(math.ceil(low), math.floor(high) + 1))
+    if meta["min"] > 0.0 and meta["max"] / meta["min"] > 100.0:
+        return float(math.exp(rng.uniform(math.log(low), math.log(high))))
+    return float(rng.uniform(low, high))
+
+
+def random_point(rng) -> dict | None:
+    """One point with every parameter drawn at once (module docstring): each parameter over its declared range,
+    then those a relation ties to others within the range the drawn ones allow (RELATION_BOUNDS, in its order).
+    None if a relation leaves no room (an empty range)."""
+    point = dict(rpm=float(math.exp(rng.uniform(math.log(10.0), math.log(MAX_SPEED_RPM)))))
+    metadata = {}
+    for name, _, meta in declarations():
+        metadata[name] = meta
+        if meta.get("fluid"):
+            point[name] = str(rng.choice(FLUIDS))
+        elif "choices" in meta:
+            point[name] = str(rng.choice(meta["choices"]))
+        else:
+            point[name] = _draw(rng, meta)
+    for name, bounds in RELATION_BOUNDS:
+        allowed = bounds(point)
+        if "choices" in metadata[name]:
+            if point[name] not in allowed:
+                point[name] = str(rng.choice(allowed))
+            continue
+        low, high = (metadata[name]["min"] if allowed[0] is None else allowed[0],
+                     metadata[name]["max"] if allowed[1] is None else allowed[1])
+        if not max(low, metadata[name]["min"]) < min(high, metadata[name]["max"]):
+            return None
+        point[name] = _draw(rng, metadata[name], low, high)
+    return point
+
+
+def valid_random_points(count: int, seed: int = SEED, budget: float = math.inf) -> tuple[list[dict], dict]:
+    """`count` random points that pass validation and whose revolution the library estimates within `budget`
+    seconds (mechanics.run_cost, said up front), and the candidates drawn before them that were refused: by the
+    parameter named, "no room" for a draw whose relations left an empty range, "announced over budget" for a valid
+    point whose estimate exceeds the budget (module docstring)."""
     rng = np.random.default_rng(seed)
-    points = []
-    for _ in range(count):
-        point = dict(rpm=float(math.exp(rng.uniform(math.log(10.0), math.log(MAX_SPEED_RPM)))))
-        for name, _, meta in declarations():
-            if meta.get("fluid"):
-                point[name] = str(rng.choice(FLUIDS))
-            elif "choices" in meta:
-                point[name] = str(rng.choice(meta["choices"]))
-            elif meta["integer"]:
-                point[name] = int(rng.integers(meta["min"], meta["max"] + 1))
-            elif meta["min"] > 0.0 and meta["max"] / meta["min"] > 100.0:
-                point[name] = float(math.exp(rng.uniform(math.log(meta["min"]), math.log(meta["max"]))))
-            else:
-                point[name] = float(rng.uniform(meta["min"], meta["max"]))
-        points.append(point)
-    return points
-
-
-def valid_random_points(count: int, seed: int = SEED) -> tuple[list[dict], dict]:
-    """`count` random points that pass validation, and the refusals of the candidates drawn before them, by the
-    parameter named (module docstring)."""
-    points, refusals, batch = [], {}, 0
+    points, refusals = [], {}
     while len(points) < count:
-        for point in random_points(count, seed + batch):
+        point = random_point(rng)
+        reason = "no room" if point is None else None
+        if point is not None:
             try:
-                CompressorParameters(**{k: v for k, v in point.items() if k != "rpm"})
+                params = CompressorParameters(**{k: v for k, v in point.items() if k != "rpm"})
+                if revolution_cost(params, point["rpm"]).seconds > budget:
+                    reason = "announced over budget"
             except ValueError as error:
-                name = next((n for n, _, _ in declarations() if f"'{n}'" in str(error)), None)
-                if name is not None:
-                    refusals[name] = refusals.get(name, 0) + 1
-                    continue
-            points.append(point)
-            if len(points) == count:
-                break
-        batch += 1
+                reason = next((n for n, _, _ in declarations() if f"'{n}'" in str(error)), None)
+        if reason is not None:
+            refusals[reason] = refusals.get(reason, 0) + 1
+            continue
+        points.append(point)
     return points, refusals
 
 
@@ -179,9 +207,9 @@ def main(argv=None) -> int:
     parser.add_argument("--csv", type=Path, help="write one row per point")
     args = parser.parse_args(argv)
     Simulation(CompressorParameters(pressure_model="ideal_gas_table")).advance(1e-5)     # compile once
-    drawn, random_refusals = valid_random_points(args.random, args.seed)
+    drawn, random_refusals = valid_random_points(args.random, args.seed, args.budget)
     print(f"random points: {len(drawn) + sum(random_refusals.values())} drawn, {sum(random_refusals.values())} "
-          f"refused at validation by the parameter named (" + ", ".join(f"{k} {v}" for k, v in sorted(
+          f"refused before any work (by the parameter named, or no room, or announced over budget: " + ", ".join(f"{k} {v}" for k, v in sorted(
               random_refusals.items(), key=lambda item: -item[1])) + f"), {len(drawn)} run")
     points = one_at_a_time() + drawn
     started = time.perf_counter()

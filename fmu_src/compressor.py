@@ -18,6 +18,7 @@ from ..mechanics import CompressorParameters, IntegrationError, Simulation, cons
 from ..mechanics.parameters import is_numeric
 from ..mechanics.simulation import WORK_PER_MS
 from ..mechanics.layout import WORK_IN
+from ..mechanics.machine import machine_from_parameters
 from ..mechanics.modes import MODE_COUNT
 from ..mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
 from ..thermo.compile_cache import cache_root, shipped_kernel_misses, shipped_kernels_refusal
@@ -308,7 +309,7 @@ def _check_built_model(tree) -> None:
         return
     if model["simulation"] is not None and model["map_run"] is not None:
         raise ValueError("the state is inconsistent: it holds both a detailed and a periodic-map run")
-    CompressorParameters(**{name: parameters[name] for name, _, _ in declarations()})
+    compressor = CompressorParameters(**{name: parameters[name] for name, _, _ in declarations()})
     for name, (_, _, low, high, _) in RUN_PARAMETERS.items():
         if not (math.isfinite(parameters[name]) and low <= parameters[name] <= high):
             raise ValueError(f"parameter '{name}' = {parameters[name]!r} is out of range: allowed [{low:g}, {high:g}]")
@@ -319,7 +320,7 @@ def _check_built_model(tree) -> None:
         raise ValueError(f"the state is inconsistent: a {kind} run with fidelity {parameters['fidelity']!r}"
                          f"{' and periodic-map values' if model['map_values'] else ''}")
     if model["simulation"] is not None:
-        compressor_state.check_controls(model["simulation"], parameters)
+        compressor_state.check_controls(model["simulation"], machine_from_parameters(compressor))
         compressor_state.check_rows(model["simulation"], parameters["pressure_model"])
 
 

@@ -12,13 +12,12 @@ import math
 import numpy as np
 
 from ..mechanics.integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_PREVIOUS_ERROR, CONTROL_SIZE,
-                                               CONTROL_SMALL_ERRORS, CONTROL_STEP, COUNTER_SIZE)
+                                     CONTROL_SMALL_ERRORS, CONTROL_STEP, COUNTER_SIZE, smallest_step)
 from ..mechanics.layout import MEMORY_SIZE, REAL_GAS_STATE_SIZE, VANE_STATE_SIZE
 from ..mechanics.outputs import OUTPUT_INDEX, OUTPUT_SIZE, STEP_OUTPUTS
 from ..mechanics.simulation import ARRAY_FIELDS, SimulationState
 from ..mechanics.speed import SHAPES
-from ..mechanics.windows import (MODE_KEYS, RECORD_SIZE, WINDOW_ACCUMULATORS, WINDOW_SIZE,
-                                           WINDOW_START)
+from ..mechanics.windows import MODE_KEYS, RECORD_SIZE, WINDOW_ACCUMULATORS, WINDOW_SIZE, WINDOW_START
 
 from . import state_schema as schema
 
@@ -110,16 +109,17 @@ def check_rows(simulation: dict, pressure_model: str) -> None:
                              f"undefined{' or in the whole start row' if name == 'window' else ''}")
 
 
-def check_controls(simulation: dict, parameters: dict) -> None:
-    """The integrator's controls between advances (mechanics.integrators.advance): the step size finite, > 0 and
-    within what the step-size rules can leave (at most 10 max_step after a DOPRI5 step, a rejection below min_step
-    stops the run), the ABM4 history count and small-error count in their ranges, the previous error estimate 0
-    (none yet) or in [1e-4, 1]; the speed law of a known shape."""
+def check_controls(simulation: dict, machine) -> None:
+    """The integrator's controls between advances (mechanics.integrators.advance): the step size finite and within
+    what the step-size rules can leave (at most 10 max_step after a DOPRI5 step; a rejection below the smallest step
+    16 eps max(|t|, T_c) stops the run), the ABM4 history count and small-error count in their ranges, the previous
+    error estimate 0 (none yet) or in [1e-4, 1]; the speed law of a known shape. `machine`: the kernel record of the
+    state's parameters (mechanics.machine.machine_from_parameters)."""
     control, law = simulation["control"].tolist(), simulation["speed_law"].tolist()
-    step, low, high = control[CONTROL_STEP], 1e-3 * parameters["min_step"], 10.0 * parameters["max_step"]
+    step, low, high = control[CONTROL_STEP], smallest_step(0.0, machine), 10.0 * machine.max_step
     if not low <= step <= high:
         raise ValueError(f"state field 'control[step]' = {step!r} s is invalid: allowed [{low:g}, {high:g}] s "
-                         f"(1e-3 min_step to 10 max_step)")
+                         f"(the smallest step to 10 max_step)")
     for index, name, top in ((CONTROL_HISTORY, "history", ABM_HISTORY), (CONTROL_SMALL_ERRORS, "small_errors", 8)):
         if not (control[index] == int(control[index]) and 0 <= control[index] <= top):
             raise ValueError(f"state field 'control[{name}]' = {control[index]!r} is invalid: allowed an integer in "

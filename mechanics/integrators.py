@@ -1,17 +1,16 @@
-"""The time loop: one step loop for the adaptive Dormand-Prince 5(4) pair and the thesis's ABM4 PECE with RK4 start
-(docs/model.md §8.2).
+"""The time loop: one step loop for every method, the adaptive Dormand-Prince 5(4) pair and the thesis's ABM4 PECE
+with RK4 start (docs/model.md §8.2).
 
 `advance` is entered once per advance and runs until the end time, a full output buffer or a failure. It owns
-what both methods share, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
+what every method shares, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
 to land on them; a step is rejected when its error is too large, when a contact opened deeper than
 max_onset_penetration, or when the state is invalid; after an accepted step the memory (warm start, impact
 velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.windows) and,
-at a valley, the lobe record written and the chambers switched. Each method supplies its attempt and its step-size
-rule: `dopri5_attempt` from the tableau below (as scipy's RungeKutta classes do), `abm4_attempt` as Adams-Bashforth
-predictor and Adams-Moulton corrector with Runge-Kutta (RK4) steps to start and to land on events.
-
-Under real gas the chamber states (thermo.chamber_model) are part of the state vector and every stage evaluates
-them with the vane (mechanics.dynamics.evaluate).
+at a valley, the lobe record written and the chambers switched. A method is a set of kernels with one signature
+each (begin, bounded step, attempt, after rejection, after acceptance: the block "The methods" below):
+`dopri5_*` from the tableau below (as scipy's RungeKutta classes do), `abm4_*` as Adams-Bashforth predictor and
+Adams-Moulton corrector with Runge-Kutta (RK4) steps to start and to land on events. The loop reaches them through
+the `method_*` dispatchers, so it reads the same for every method and a new method does not edit it.
 """
 import math
 
@@ -42,6 +41,7 @@ CONTROL_SIZE = 4
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
+TIME_RESOLUTION = 16.0 * np.finfo(np.float64).eps      # the smallest step relative to the time (smallest_step)
 
 # Dormand-Prince 5(4) (Hairer, Norsett, Wanner, Solving ODEs I, Table 5.2): nodes C, coefficients A (the last row
 # is the 5th-order solution B: first same as last), error weights E = B - B_hat.
@@ -154,11 +154,36 @@ def _stage_point(target, y, h, tableau, row, k, count, n):
         target[i] = y[i] + h * total
 
 
+# The methods (docs/model.md §8.2). Each is a set of kernels with the same arguments:
+#   <method>_begin(control, history, work, n)                 at the start of an advance
+#   <method>_bounded_step(h, m)                               the step to try before the events clip it
+#   <method>_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+#                                                             one step: new state in work[W_Y_NEW], its derivative in
+#                                                             work[STAGES - 1], its output row in `out`; returns
+#                                                             (failure status, scaled error: <= 1 accepts)
+#   <method>_after_rejection(control, step, err, finite)      the step size to retry with
+#   <method>_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+#                                                             the method's memory and the next step size
+# The step size and the method's memory live in `control` (CONTROL_*), so an advance continues where the last
+# ended. The `method_*` dispatchers at the end of this block are the only place that names the methods: a new
+# method is its kernels and one line in each dispatcher; the loop (`advance`) is the same for every method.
+
 @kernel
-def dopri5_attempt(t, h, y, ctx, memory, work, work_rows, out):
-    """One Dormand-Prince step from (t, y) with k_1 = work[0]: the new state in work[W_Y_NEW], its output row in
-    `out` and its derivative in work[6] (first same as last); `work_rows` are the workspace's rows as arrays. Returns
-    (failure status, RMS scaled error)."""
+def dopri5_begin(control, history, work, n):
+    """The PI controller's previous error starts at 1e-4 (Hairer's DOPRI5)."""
+    if control[CONTROL_PREVIOUS_ERROR] <= 0.0:
+        control[CONTROL_PREVIOUS_ERROR] = 1e-4
+
+
+@kernel
+def dopri5_bounded_step(h, m):
+    return min(h, m.max_step)
+
+
+@kernel
+def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
+    """One Dormand-Prince step from (t, y) with k_1 = work[0] (first same as last: k_7 is the new state's
+    derivative, work[STAGES - 1]). Returns (failure status, RMS scaled error)."""
     m = ctx.machine[0]
     c = ctx.chambers[0]
     n = y.size
@@ -167,6 +192,7 @@ def dopri5_attempt(t, h, y, ctx, memory, work, work_rows, out):
         target = work_rows[W_Y_NEW] if i == STAGES - 1 else work_rows[W_STAGE]
         _stage_point(target, y, h, DOPRI5_A, i, work, i, n)
         failure |= evaluate(t + DOPRI5_C[i] * h, target, ctx, memory, work_rows[i], out, i == STAGES - 1)
+    counters[EVALUATIONS] += STAGES - 1
     squares = 0.0
     for i in range(n):
         error = 0.0
@@ -177,19 +203,60 @@ def dopri5_attempt(t, h, y, ctx, memory, work, work_rows, out):
 
 
 @kernel
-def abm4_attempt(t, h, multistep, y, ctx, memory, history, work, work_rows, out):
+def dopri5_after_rejection(control, step, err, finite):
+    """Shrink by the error's own factor (at most 5x) if the error rejected the step, else halve."""
+    if err > 1.0 and finite:
+        return step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
+    return 0.5 * step
+
+
+@kernel
+def dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    """PI control: h_new = step min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)), no growth right after a
+    rejection; a step shortened by an event does not shrink the step size."""
+    err = max(err, 1e-10)
+    factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * control[CONTROL_PREVIOUS_ERROR] ** PI_BETA))
+    if rejected_last:
+        factor = min(factor, 1.0)
+    control[CONTROL_PREVIOUS_ERROR] = max(err, 1e-4)
+    h = control[CONTROL_STEP]
+    control[CONTROL_STEP] = max(h, step * factor) if event != NO_EVENT else step * factor
+
+
+@kernel
+def abm4_begin(control, history, work, n):
+    """f_n of the current point is the newest history point."""
+    for i in range(n):
+        history[0, i] = work[0, i]
+    control[CONTROL_HISTORY] = max(control[CONTROL_HISTORY], 1.0)
+
+
+@kernel
+def abm4_bounded_step(h, m):
+    """ABM4 keeps its step (h_max bounds only its doubling): the history is at that spacing."""
+    return h
+
+
+@kernel
+def _abm4_multistep(control, event):
+    """True if the step is a PECE step (four points at the current spacing, no event), False for an RK4 step."""
+    return control[CONTROL_HISTORY] >= 4.0 and event == NO_EVENT
+
+
+@kernel
+def abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
     """One ABM4 PECE step from (t, y) (docs/model.md §8.2), f_n = history[0] = work[0]:
       AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
       LTE ~ 19/270 (y^c - y^p);
-    or, when not `multistep`, one RK4 step (no error estimate). The new state in work[W_Y_NEW], its derivative in
-    work[6], its output row in `out`. Returns (failure status, max scaled error)."""
+    or, without four points at the current spacing or when the step lands on an event, one RK4 step (no error
+    estimate). Returns (failure status, max scaled error)."""
     m = ctx.machine[0]
     c = ctx.chambers[0]
     n = y.size
     y_new = work_rows[W_Y_NEW]
     failure = 0
     worst = 0.0
-    if multistep:
+    if _abm4_multistep(control, event):
         y_pred = work_rows[W_Y_PREDICTED]
         f_pred = work_rows[W_F_PREDICTED]
         for i in range(n):
@@ -200,6 +267,7 @@ def abm4_attempt(t, h, multistep, y, ctx, memory, history, work, work_rows, out)
             y_new[i] = y[i] + h / 24.0 * (9.0 * f_pred[i] + 19.0 * history[0, i] - 5.0 * history[1, i]
                                           + history[2, i])
             worst = max(worst, abs(19.0 / 270.0 * (y_new[i] - y_pred[i])) / _tolerance(i, y_new[i], m, c))
+        counters[EVALUATIONS] += 2
     else:
         for i in range(1, 4):
             _stage_point(work_rows[W_STAGE], y, h, RK4_A, i, work, i, n)
@@ -207,8 +275,94 @@ def abm4_attempt(t, h, multistep, y, ctx, memory, history, work, work_rows, out)
         for i in range(n):
             y_new[i] = y[i] + h * (RK4_B[0] * work[0, i] + RK4_B[1] * work[1, i] + RK4_B[2] * work[2, i]
                                    + RK4_B[3] * work[3, i])
+        counters[EVALUATIONS] += 4
     failure |= evaluate(t + h, y_new, ctx, memory, work_rows[STAGES - 1], out, True)
     return failure, worst
+
+
+@kernel
+def abm4_after_rejection(control, step, err, finite):
+    """Halve and restart from y_n."""
+    control[CONTROL_HISTORY] = 1.0
+    control[CONTROL_SMALL_ERRORS] = 0.0
+    return 0.5 * min(control[CONTROL_STEP], step)
+
+
+@kernel
+def _abm4_shift_history(control, event, history, work, n):
+    """The accepted point becomes f_n; the older points shift back unless an event restarted the spacing."""
+    valid = int(control[CONTROL_HISTORY])
+    if event == NO_EVENT:
+        for j in range(ABM_HISTORY - 1, 0, -1):
+            for i in range(n):
+                history[j, i] = history[j - 1, i]
+        valid = min(valid + 1, ABM_HISTORY)
+    else:
+        valid = 1
+    for i in range(n):
+        history[0, i] = work[0, i]
+    control[CONTROL_HISTORY] = valid
+
+
+@kernel
+def abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    """Shift the history (restart it after a non-smooth point); double h after 8 PECE steps with err < 1/50 if
+    2h <= h_max, reusing every second point when 7 are known at the current spacing, else restarting."""
+    multistep = _abm4_multistep(control, event)
+    _abm4_shift_history(control, event, history, work, n)
+    if restart:
+        control[CONTROL_HISTORY] = 1.0
+        counters[RESTARTS] += 1
+    small_errors = control[CONTROL_SMALL_ERRORS] + 1.0 if (multistep and err < 1.0 / 50.0) else 0.0
+    h = control[CONTROL_STEP]
+    if small_errors >= 8.0 and 2.0 * h <= m.max_step:
+        if control[CONTROL_HISTORY] >= ABM_HISTORY:
+            for j in range(1, 4):
+                for i in range(n):
+                    history[j, i] = history[2 * j, i]
+            control[CONTROL_HISTORY] = 4.0
+        else:
+            control[CONTROL_HISTORY] = 1.0
+        control[CONTROL_STEP] = 2.0 * h
+        small_errors = 0.0
+    control[CONTROL_SMALL_ERRORS] = small_errors
+
+
+@kernel(inline=True)
+def method_begin(code, control, history, work, n):
+    if code == ABM4:
+        abm4_begin(control, history, work, n)
+    else:
+        dopri5_begin(control, history, work, n)
+
+
+@kernel(inline=True)
+def method_bounded_step(code, h, m):
+    if code == ABM4:
+        return abm4_bounded_step(h, m)
+    return dopri5_bounded_step(h, m)
+
+
+@kernel(inline=True)
+def method_attempt(code, t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
+    if code == ABM4:
+        return abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+    return dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+
+
+@kernel(inline=True)
+def method_after_rejection(code, control, step, err, finite):
+    if code == ABM4:
+        return abm4_after_rejection(control, step, err, finite)
+    return dopri5_after_rejection(control, step, err, finite)
+
+
+@kernel(inline=True)
+def method_after_acceptance(code, control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    if code == ABM4:
+        abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+    else:
+        dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
 
 
 @kernel
@@ -229,142 +383,93 @@ def _cross_valley(t, y, memory, ctx, real_gas):
 
 
 @kernel
+def smallest_step(t, m):
+    """h_min = 16 eps max(|t|, T_c) (docs/model.md §8.2): the step below which t + h no longer differs from t by
+    more than a few units of rounding, so the error control cannot be met by any smaller step; the contact period
+    T_c (mechanics.machine.contact_period) is the time scale near t = 0."""
+    return TIME_RESOLUTION * max(abs(t), m.contact_period)
+
+
+@kernel
+def _step_rejected(err, failure, out, memory, m):
+    """A step is rejected when its error is too large, its state invalid, or a contact opened too deep."""
+    return err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m)
+
+
+@kernel
+def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
+    """Accumulate the lobe window (mechanics.windows) and write the output row (row 0 unless keep_rows)."""
+    accumulate(window, run_dwell, out)
+    row = rows if keep_rows else 0
+    for i in range(out.size):
+        rows_out[row, i] = out[i]
+
+
+@kernel
 def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, out, scratch, rows_out,
             keep_rows, lobe_records, counters, max_attempts):
-    """Integrate from t to t_end (module docstring). y, memory, control, history, window, run_dwell and counters are
-    updated in place; work is the workspace (WORKSPACE_ROWS rows) and work_rows the same rows as a tuple of arrays (a
-    function without reference counting cannot take views); out and scratch are output rows;
-    accepted output rows go to rows_out (all of them if keep_rows, else only the last in rows_out[0]), lobe records
-    to lobe_records. At most max_attempts steps are attempted (accepted or rejected): then the status is WORK_LIMIT,
-    so that no state (a step size of 0 or 5e-324, a time that does not advance) can make the loop spin.
-    Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number.
-
-    DOPRI5 step control (Hairer's RMS norm, PI control):
-      h_new = h min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)),  beta = 0.04, no growth after a rejection.
-    ABM4: max norm; halve on rejection, double after 8 steps with err < 1/50; RK4 steps after a restart (a new law,
-    a mode change, an event) until four points are known at the current spacing.
-    """
+    """Integrate from t to t_end with the machine's method (module docstring; the methods above). y, memory,
+    control, history, window, run_dwell and counters are updated in place; work is the workspace (WORKSPACE_ROWS
+    rows) and work_rows the same rows as a tuple of arrays (a function without reference counting cannot take
+    views); out and scratch are output rows; accepted output rows go to rows_out (all of them if keep_rows, else
+    only the last in rows_out[0]), lobe records to lobe_records. At most max_attempts steps are attempted
+    (accepted or rejected): then the status is WORK_LIMIT, so that no state (a step size of 0 or 5e-324, a time
+    that does not advance) can make the loop spin.
+    Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number."""
     m = ctx.machine[0]
+    method = m.integrator
     real_gas = m.pressure_model == REAL_GAS_MODEL
-    abm = m.integrator == ABM4
     n = y.size
     rows = 0
     records = 0
-    h = control[CONTROL_STEP]
-    previous_error = control[CONTROL_PREVIOUS_ERROR] if control[CONTROL_PREVIOUS_ERROR] > 0.0 else 1e-4
-    valid = int(control[CONTROL_HISTORY])
-    small_errors = int(control[CONTROL_SMALL_ERRORS])
     evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
     counters[EVALUATIONS] += 1
-    if abm:
-        for i in range(n):
-            history[0, i] = work[0, i]
-        valid = max(valid, 1)
+    method_begin(method, control, history, work, n)
     rejected_last = False
-    full = False
     attempts = 0
     while t < t_end:
         if (keep_rows and rows >= rows_out.shape[0]) or records >= lobe_records.shape[0]:
-            full = True
-            break
+            return RECORD_FULL, t, rows, records
         if attempts >= max_attempts:
-            control[CONTROL_STEP] = h
-            control[CONTROL_HISTORY] = valid
             return WORK_LIMIT, t, rows, records
         attempts += 1
-        if not abm:
-            h = min(h, m.max_step)
-        step, event = _clip_to_events(t, h, t_end, ctx.law, memory, m)
-        multistep = abm and valid >= 4 and event == NO_EVENT
-        if abm:
-            failure, err = abm4_attempt(t, step, multistep, y, ctx, memory, history, work, work_rows, out)
-            counters[EVALUATIONS] += 2 if multistep else 4
-        else:
-            failure, err = dopri5_attempt(t, step, y, ctx, memory, work, work_rows, out)
-            counters[EVALUATIONS] += 6
+        control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
+        step, event = _clip_to_events(t, control[CONTROL_STEP], t_end, ctx.law, memory, m)
+        failure, err = method_attempt(method, t, step, event, y, ctx, memory, control, history, work, work_rows, out,
+                                      counters)
         finite = _all_finite(work_rows[W_Y_NEW], n) and _all_finite(work_rows[STAGES - 1], n)
         if not finite:
             err = math.inf
-        if err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m):
+        if _step_rejected(err, failure, out, memory, m):
             counters[REJECTED] += 1
             rejected_last = True
-            if abm:
-                h = 0.5 * min(h, step)
-                valid = 1
-                small_errors = 0
-            elif err > 1.0 and finite:
-                h = step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
-            else:
-                h = 0.5 * step
-            if h < m.min_step:
-                control[CONTROL_STEP] = h
-                control[CONTROL_HISTORY] = valid
+            control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
+            if control[CONTROL_STEP] < smallest_step(t, m):
                 if failure != 0:
                     return failure, t, rows, records
                 return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
             continue
-        # accepted ---------------------------------------------------------------------------------------------
         counters[ACCEPTED] += 1
         t = t_end if event == END_EVENT else t + step
         copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
         copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
         mode_changed = _update_memory(out, memory, m)
-        if mode_changed:
-            counters[MODE_CHANGES] += 1
-        accumulate(window, run_dwell, out)
-        row = rows if keep_rows else 0
-        for i in range(out.size):
-            rows_out[row, i] = out[i]
+        counters[MODE_CHANGES] += mode_changed
+        _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows)
         rows += 1
         if event == VALLEY_EVENT:
             records = close_window(window, out, round(memory[MEM_LOBE_START] * m.lobes / (2.0 * math.pi)) + 1,
                                    lobe_records, records)
             if not _cross_valley(t, y, memory, ctx, real_gas):
-                control[CONTROL_STEP] = h
                 return GAS_STATE_INVALID, t, rows, records
             counters[VALLEY_CROSSINGS] += 1
             evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
             counters[EVALUATIONS] += 1
-        # step size for the next step ------------------------------------------------------------------------
-        if abm:
-            if event == NO_EVENT:
-                for j in range(ABM_HISTORY - 1, 0, -1):
-                    for i in range(n):
-                        history[j, i] = history[j - 1, i]
-                valid = min(valid + 1, ABM_HISTORY)
-            else:
-                valid = 1
-            for i in range(n):
-                history[0, i] = work[0, i]
-            if mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT:
-                valid = 1
-                counters[RESTARTS] += 1
-            small_errors = small_errors + 1 if (multistep and err < 1.0 / 50.0) else 0
-            if small_errors >= 8 and 2.0 * h <= m.max_step:
-                if valid >= ABM_HISTORY:
-                    for j in range(1, 4):
-                        for i in range(n):
-                            history[j, i] = history[2 * j, i]
-                    valid = 4
-                else:
-                    valid = 1
-                h *= 2.0
-                small_errors = 0
-        else:
-            err = max(err, 1e-10)
-            factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * previous_error ** PI_BETA))
-            if rejected_last:
-                factor = min(factor, 1.0)
-            previous_error = max(err, 1e-4)
-            h = max(h, step * factor) if event != NO_EVENT else step * factor
+        restart = mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT
+        method_after_acceptance(method, control, step, err, event, restart, rejected_last, history, work, n, m,
+                                counters)
         rejected_last = False
-    control[CONTROL_STEP] = h
-    control[CONTROL_PREVIOUS_ERROR] = previous_error
-    control[CONTROL_HISTORY] = valid
-    control[CONTROL_SMALL_ERRORS] = small_errors
-    if t >= t_end:
-        return REACHED_END, t, rows, records
-    return (RECORD_FULL if full else NOT_FINITE), t, rows, records
+    return (REACHED_END if t >= t_end else NOT_FINITE), t, rows, records
 
 
 @kernel(allocates=True)

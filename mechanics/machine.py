@@ -10,6 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .chamber_geometry import sector_integral, sector_table
+from .contact_laws import HERTZ_POINT, hertz_stiffness, line_contact_constants
 from .displacement import LAW_CODES
 from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
 from ..thermo.kernel import kernel_record
@@ -48,6 +49,20 @@ def effective_modulus(youngs_modulus, poisson_ratio) -> float:
     return youngs_modulus / (2.0 * (1.0 - poisson_ratio ** 2))
 
 
+def contact_period(m) -> float:
+    """T_c = 2 pi sqrt(m3 / k) of the vane on a slot edge (R* = r_e) at the representative load F = (p_d - p_s) h L,
+    the gas force on the vane's exposed face, with k = dF/d delta of the machine's stiffness law (docs/model.md
+    §8.3). `m`: the machine record."""
+    load = (m.discharge_pressure - m.suction_pressure) * m.stroke * m.axial_length
+    if m.stiffness_model == HERTZ_POINT:              # F = K delta^1.5: k = 1.5 K^(2/3) F^(1/3)
+        stiffness = 1.5 * hertz_stiffness(1.0 / m.edge_radius, 0.0, m.effective_modulus) ** (2.0 / 3.0) \
+            * load ** (1.0 / 3.0)
+    else:                                             # delta = F (A - B ln F): 1/k = A - B ln F - B (>= B)
+        a, b = line_contact_constants(1.0 / m.edge_radius, 0.0, m)
+        stiffness = 1.0 / max(a - b * math.log(load) - b, b)
+    return 2.0 * math.pi * math.sqrt(m.vane_mass / stiffness)
+
+
 # (field, meaning): every constant the mechanics kernels read, all float64; choices as integer codes
 MACHINE_FIELDS = (
     ("lobes", "z"), ("law", "displacement law code"), ("stroke", "h [m]"), ("bottom_dwell", "beta0 [rad]"),
@@ -65,7 +80,8 @@ MACHINE_FIELDS = (
     ("dead_volume", "V_dead, added to both chamber volumes [m3]"),
     ("pressure_model", "code"), ("integrator", "code"), ("relative_tolerance", "rtol"),
     ("atol_position", "[m]"), ("atol_angle", "[rad]"), ("atol_velocity", "[m/s]"),
-    ("atol_angular_velocity", "[rad/s]"), ("atol_work", "[J]"), ("min_step", "[s]"), ("max_step", "[s]"),
+    ("atol_angular_velocity", "[rad/s]"), ("atol_work", "[J]"), ("max_step", "[s]"),
+    ("contact_period", "T_c of docs/model.md §8.3, the time scale of the smallest step [s]"),
     ("max_onset_penetration", "[m]"),
     ("stator_lobe_integral", "int (1/2 r^2 + d N) du over a lobe (mechanics.chamber_geometry) [m2]"),
 )
@@ -99,12 +115,13 @@ def machine_array(p: CompressorParameters) -> np.ndarray:
         integrator=float(INTEGRATORS.index(p.integrator)), relative_tolerance=p.relative_tolerance,
         atol_position=1e-9 * scale, atol_angle=1e-8 * scale, atol_velocity=1e-6 * scale,
         atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
-        min_step=p.min_step, max_step=p.max_step, max_onset_penetration=p.max_onset_penetration,
+        max_step=p.max_step, contact_period=math.nan, max_onset_penetration=p.max_onset_penetration,
         stator_lobe_integral=math.nan)
     machine = np.zeros(1, dtype=MACHINE_DTYPE)
     for name, value in values.items():
         machine[name] = value
     machine["stator_lobe_integral"] = 2.0 * sector_integral(math.pi / p.lobes, sector_table(record_of(machine)))
+    machine["contact_period"] = contact_period(record_of(machine))
     return kernel_record(machine)
 
 

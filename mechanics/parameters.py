@@ -125,7 +125,6 @@ class CompressorParameters:
     tolerance_scale: float = _number(1.0, "1", 1e-3, 10.0,
                                      "factor on all absolute tolerances of docs/model.md §8.2 (positions 1e-9 m, ...)")
     initial_step: float = _number(1e-6, "s", 1e-10, 2e-4, "first step size h_0")
-    min_step: float = _number(1e-9, "s", 1e-14, 1e-8, "smallest step h_min; below it the run stops with an error")
     max_step: float = _number(2e-5, "s", 1e-8, 2e-4, "largest step h_max")
     max_onset_penetration: float = _number(1e-6, "m", 1e-9, 1e-4,
                                            "largest penetration allowed in the step where a contact opens")
@@ -254,10 +253,8 @@ def _validate_relations(params: CompressorParameters) -> None:
         _reject("end_valley_leak_law", p.end_valley_leak_law,
                 "nozzle or sealed with pressure_model 'ideal_gas_table' (the friction-corrected law needs the "
                 "fluid's viscosity: pressure_model 'real_gas')")
-    if p.min_step >= p.max_step:
-        _reject("min_step", p.min_step, f"< max_step = {p.max_step:g} s")
-    if not p.min_step <= p.initial_step <= p.max_step:
-        _reject("initial_step", p.initial_step, f"in [min_step, max_step] = [{p.min_step:g}, {p.max_step:g}] s")
+    if p.initial_step > p.max_step:
+        _reject("initial_step", p.initial_step, f"<= max_step = {p.max_step:g} s")
     if p.stroke >= p.base_radius:
         _reject("stroke", p.stroke, f"< rotor_radius - vane_thickness/2 = {p.base_radius:g} m")
     if p.slot_width >= p.rotor_radius:
@@ -299,6 +296,62 @@ def _validate_relations(params: CompressorParameters) -> None:
         _reject("slot_bottom_radius", p.slot_bottom_radius,
                 f"< {bottom_radius_at_rest:g} m (the vane bottom at zero stroke, with vane_length = "
                 f"{p.vane_length:g} m, must clear the slot bottom)")
+
+
+def _lobe_angle(values) -> float:
+    return 2.0 * math.pi / values["lobes"]
+
+
+def _thickest_vane(values) -> float:
+    """t + c_R < R_r, and room for the shortest declared stroke: R_m - t > h_lo, i.e. (t + h_lo)^2 + (t + c_R)^2/4
+    < R_r^2, a quadratic in t."""
+    radius, clearance = values["rotor_radius"], values["slot_clearance"]
+    shortest_stroke = _declared("stroke")[1]["min"]
+    a, b = 1.25, 2.0 * shortest_stroke + 0.5 * clearance
+    c = shortest_stroke ** 2 + 0.25 * clearance ** 2 - radius ** 2
+    return min(radius - clearance, (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a))
+
+
+def _mouth_radius(values) -> float:
+    """R_m = sqrt(R_r^2 - (w/2)^2) of drawn values (CompressorParameters.mouth_radius)."""
+    return math.sqrt(values["rotor_radius"] ** 2 - (0.5 * (values["vane_thickness"] + values["slot_clearance"])) ** 2)
+
+
+def _longest_stroke(values) -> float:
+    """stroke < R0 (the valley) and stroke < R_m - t (a vane long enough to stay engaged must clear r_sb >= 0)."""
+    return min(values["rotor_radius"] - 0.5 * values["vane_thickness"],
+               _mouth_radius(values) - values["vane_thickness"])
+
+
+def _vane_length_range(values) -> tuple:
+    """[one thickness engaged at full stroke, R_r): R0 + h - (l_v - rho) <= R_m - t, and below R_r the vane bottom
+    at rest clears some r_sb >= 0."""
+    return values["rotor_radius"] + values["stroke"] - _mouth_radius(values) + values["vane_thickness"], \
+        values["rotor_radius"]
+
+
+# The range the relations of `_validate_relations` leave one parameter once those it depends on are known, in an
+# order in which each comes after the ones it depends on: (name, bounds(values) -> (low, high) for a number, None
+# for either end at its declaration; or the allowed choices). A sampler draws the other parameters over their
+# declared ranges, then these in this order within their bounds, and so lands in the valid region without
+# rejection except for the relations with no closed form: the stator regularity (mechanics.geometry) and the
+# fluid's range (CoolProp). tests/test_parameters.py checks each bound against validation.
+RELATION_BOUNDS = (
+    ("discharge_pressure", lambda v: (math.nextafter(v["suction_pressure"], math.inf), None)),
+    ("end_valley_leak_law", lambda v: tuple(law for law in LEAKAGE_LAWS if law != "friction_corrected"
+                                            or v["pressure_model"] != "ideal_gas_table")),
+    ("initial_step", lambda v: (None, v["max_step"])),
+    ("vane_thickness", lambda v: (None, _thickest_vane(v))),
+    ("stroke", lambda v: (None, _longest_stroke(v))),
+    ("vane_length", _vane_length_range),
+    ("slot_bottom_radius", lambda v: (None, v["rotor_radius"] - v["vane_length"])),
+    ("friction_velocity_full", lambda v: (v["friction_velocity"], None) if v["friction_model"] == "ambrosio"
+     else (None, None)),
+    ("suction_close_angle", lambda v: (None, _lobe_angle(v))),
+    ("bottom_dwell", lambda v: (None, _lobe_angle(v)) if v["displacement_law"] == "harmonic_dwell" else (None, None)),
+    ("top_dwell", lambda v: (None, _lobe_angle(v) - v["bottom_dwell"]) if v["displacement_law"] == "harmonic_dwell"
+     else (None, None)),
+)
 
 
 def _declared(name: str):

@@ -7,6 +7,7 @@ saving and restoring a run is a copy, and an advance is one call of the compiled
 """
 from __future__ import annotations
 
+import logging
 import math
 import warnings
 from dataclasses import dataclass, fields
@@ -32,12 +33,15 @@ from .machine import machine_array, record_of
 from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
 from .performance import WindowSummary, revolution_groups, summarise_records
+from .run_cost import slow_run_notice
 from .speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed, rotor_motion
 from .windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZE, WINDOW_ACCUMULATORS,
                       new_window)
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
+LOG = logging.getLogger(__name__)
+
 # The work bound of one advance: at most WORK_FLOOR + `work_per_ms` step attempts (accepted or rejected) per ms of
 # the interval. Valid runs need (benchmarks/bench_work_bound.py) 70-220 per ms at 1500 rpm, about 520 at 30000 rpm
 # or at the tightest tolerances, and 100 000 with max_step at its minimum of 1e-8 s; the default, WORK_PER_MS, is
@@ -119,6 +123,9 @@ class Simulation:
                              f"invalid for pressure_model 'ideal_gas_table': allowed an operating speed > 0 rpm "
                              f"(the table depends on it)")
         p = self.params
+        notice = slow_run_notice(p, speed.target_rpm)
+        if notice:                                 # said up front (docs/model.md §8.3)
+            LOG.warning(notice)
         self.gas = gas_coupling(p, operating_speed)
         self.gas_reference = self.gas.reference
         machine = machine_array(p)

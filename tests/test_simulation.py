@@ -197,8 +197,8 @@ def test_integration_error_survives_pickling():
     import pickle
 
     from rotary_vane.mechanics import IntegrationError
-    error = pickle.loads(pickle.dumps(IntegrationError("the step size fell below min_step", 0.25, np.arange(3.0))))
-    assert (error.reason, error.time) == ("the step size fell below min_step", 0.25)
+    error = pickle.loads(pickle.dumps(IntegrationError("the step size fell below the time resolution", 0.25, np.arange(3.0))))
+    assert (error.reason, error.time) == ("the step size fell below the time resolution", 0.25)
     assert np.array_equal(error.state, np.arange(3.0))
     assert "t = 0.25 s" in str(error)
 

@@ -20,11 +20,15 @@ from numba.core.dispatcher import Dispatcher
 from .compile_cache import KernelCache
 
 
-def kernel(function=None, *, allocates: bool = False):
-    """Compile `function` for the time loop (module docstring); `allocates=True` if it creates arrays or views."""
+def kernel(function=None, *, allocates: bool = False, inline: bool = False):
+    """Compile `function` for the time loop (module docstring); `allocates=True` if it creates arrays or views;
+    `inline=True` to compile it into each caller (numba's inline="always"), for a small function on the loop's path
+    whose call would otherwise copy its arguments once more (the method dispatchers of mechanics.integrators)."""
     options = dict(error_model="numpy")
     if not allocates:
         options["_nrt"] = False
+    if inline:
+        options["inline"] = "always"
 
     def compiled(function):
         dispatcher = njit(**options)(function)
