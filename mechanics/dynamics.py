@@ -15,6 +15,7 @@ import numpy as np
 from rotary_vane.thermo.kernel import kernel
 from rotary_vane.thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
                                              ChamberInputs, chamber_energy, chamber_rates)
+from rotary_vane.thermo.flow_paths import PATH
 from rotary_vane.thermo.leakage import parabolic_flank_length, tapered_gap_length
 from rotary_vane.thermo.property_table import PropertyTable
 from rotary_vane.thermo.real_gas_nozzle import NozzleTable
@@ -201,13 +202,14 @@ def report_chambers(out, y, inputs, flows, leading, trailing, c, table):
     mass, energy = chamber_energy(y, GAS_BLOCK, inputs, c, table)
     out[O.chamber_mass] = mass
     out[O.chamber_internal_energy] = energy
-    out[O.suction_mass_flow] = flows.suction_leading + flows.suction_trailing
-    out[O.discharge_mass_flow] = flows.discharge
-    out[O.tip_leak_mass_flow] = flows.tip_leak
-    out[O.end_valley_leak_mass_flow] = flows.end_valley_leak
-    out[O.start_valley_leak_mass_flow] = flows.start_valley_leak
-    out[O.slot_leak_leading_mass_flow] = flows.slot_leak_leading
-    out[O.slot_leak_trailing_mass_flow] = flows.slot_leak_trailing
+    flow = flows.mass_flow
+    out[O.suction_mass_flow] = flow[PATH.suction_leading] + flow[PATH.suction_trailing]
+    out[O.discharge_mass_flow] = flow[PATH.discharge]
+    out[O.tip_leak_mass_flow] = flow[PATH.tip_leak]
+    out[O.end_valley_leak_mass_flow] = flow[PATH.end_valley_leak]
+    out[O.start_valley_leak_mass_flow] = flow[PATH.start_valley_leak]
+    out[O.slot_leak_leading_mass_flow] = flow[PATH.slot_leak_leading]
+    out[O.slot_leak_trailing_mass_flow] = flow[PATH.slot_leak_trailing]
     out[O.metastable_flow_paths] = flows.metastable
     for k in range(GAS_STATE_SIZE - MASS_SUCTION):
         out[O.mass_suction + k] = y[GAS_BLOCK + MASS_SUCTION + k]
