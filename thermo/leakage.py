@@ -296,7 +296,7 @@ def gap_region_length(gap_height, radius, factor=2.0):
     return 2.0 * math.sqrt(2.0 * radius * gap_height * (factor - 1.0))
 
 
-def gap_reynoldschecked_number(nozzle_flux, gap_height, viscosity):
+def gap_reynolds_number(nozzle_flux, gap_height, viscosity):
     """Re = G D_h / mu with D_h = 2 delta (PDSim's definition; the same all along the gap at a given mass flow)."""
     return _non_negative("nozzle_flux", nozzle_flux, "kg/(s m^2)") * 2.0 * _positive(
         "gap_height", gap_height, "m") / _positive("viscosity", viscosity, "Pa s")
