@@ -25,7 +25,7 @@ from pathlib import Path
 
 from pythonfmu import FmuBuilder
 
-from rotary_vane.thermo.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
+from ..thermo.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
                                               cache_folder, environment_stamp, portable_cpu, source_hash)
 
 from .requirements import bundled_requirements

@@ -14,11 +14,11 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean
 
-from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
-from rotary_vane.mechanics.layout import WORK_IN
-from rotary_vane.mechanics.modes import MODE_COUNT
-from rotary_vane.mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
-from rotary_vane.thermo.compile_cache import cache_root, shipped_kernels_refusal
+from ..mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
+from ..mechanics.layout import WORK_IN
+from ..mechanics.modes import MODE_COUNT
+from ..mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
+from ..thermo.compile_cache import cache_root, shipped_kernels_refusal
 
 from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rotary_vane.mechanics.simulation import ARRAY_FIELDS, SimulationState
+from ..mechanics.simulation import ARRAY_FIELDS, SimulationState
 
 
 def simulation_state(simulation) -> dict:

@@ -10,9 +10,9 @@ import math
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
-from rotary_vane.mechanics.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
-from rotary_vane.mechanics.parameters import short_repr
-from rotary_vane.mechanics.speed import RPM
+from ..mechanics.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
+from ..mechanics.parameters import short_repr
+from ..mechanics.speed import RPM
 
 from .slave import GuardedSlave, StepFailed
 from .variables import RealVariable, declared_parameter, output

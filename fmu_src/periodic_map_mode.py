@@ -13,11 +13,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from rotary_vane.mechanics.outputs import STEP, fmu_outputs
-from rotary_vane.mechanics.parameters import short_repr
-from rotary_vane.mechanics.periodic_map import MapSettings, build_map, cache_key, default_cache_dir
-from rotary_vane.mechanics.regions import REGION_COUNT
-from rotary_vane.mechanics.speed import RPM
+from ..mechanics.outputs import STEP, fmu_outputs
+from ..mechanics.parameters import short_repr
+from ..mechanics.periodic_map import MapSettings, build_map, cache_key, default_cache_dir
+from ..mechanics.regions import REGION_COUNT
+from ..mechanics.speed import RPM
 
 FIDELITIES = ("detailed", "periodic_map")
 SHIPPED_TABLES = Path(__file__).resolve().parent.parent / "periodic_maps"    # inside an FMU built with --map

@@ -27,8 +27,8 @@ from numba.core.dispatcher import Dispatcher
 from pythonfmu.enums import Fmi2Status
 from pythonfmu.variables import Integer, Real
 
-from rotary_vane.mechanics.parameters import INTEGRATORS, PRESSURE_MODELS
-from rotary_vane.thermo import compile_cache, disk_cache
+from ..mechanics.parameters import INTEGRATORS, PRESSURE_MODELS
+from ..thermo import compile_cache, disk_cache
 
 from .compressor import CompressorSlave
 from .slave import INITIALIZED

@@ -34,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 from .displacement import HARMONIC, HARMONIC_DWELL, displacement
 

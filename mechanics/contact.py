@@ -1,4 +1,4 @@
-"""Contact detection for the six regions (docs/model.md §4).
+"""Contact detection for the contact regions of mechanics.regions (docs/model.md §4).
 
 Detectors are pure: from the vane pose (mechanics.kinematics.VanePose) they return a `ContactCandidate` per region:
 the signed penetration delta (> 0 in contact), the unit normal n pointing from the other body into the vane, the
@@ -10,9 +10,10 @@ import math
 from typing import NamedTuple
 
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 from .geometry import closest_pitch_frame
+from .regions import SLOT_MOUTH, TIP, WALL_CORNER
 
 # candidate types of the slot-mouth regions c1/c2 (docs/model.md §4.2), used by the extended mode key
 NO_CANDIDATE, EDGE_ON_FACE, EDGE_ON_ARC, TIP_ON_WALL = 0, 1, 2, 3
@@ -120,6 +121,34 @@ def slot_bottom_contact(side, pose, m):
     return ContactCandidate(side * (corner_x * et_x + corner_y * et_y) - m.half_slot_width, -side * et_x,
                             -side * et_y, corner_x, corner_y, 1.0 / m.edge_radius, 0.0,
                             corner_x * p.er_x + corner_y * p.er_y, NO_CANDIDATE)
+
+
+@kernel
+def slot_floor_contact(side, pose, m):
+    """Region c7 (side = +1) or c8 (side = -1): bottom corner B vs the flat slot bottom (docs/model.md §4.4b).
+
+    B = G + xi_B e_xi + side (t/2) e_eta,   delta = r_sb - B.e_r,   n = e_r,   P = B.
+    """
+    p = pose
+    corner_x = p.gx + m.bottom_face * p.exi_x - side * m.half_thickness * p.exi_y
+    corner_y = p.gy + m.bottom_face * p.exi_y + side * m.half_thickness * p.exi_x
+    radius = corner_x * p.er_x + corner_y * p.er_y
+    return ContactCandidate(m.slot_bottom_radius - radius, p.er_x, p.er_y, corner_x, corner_y,
+                            1.0 / m.edge_radius, 0.0, radius, NO_CANDIDATE)
+
+
+@kernel
+def region_candidate(detector, side, slots, tip, pose, m):
+    """The candidate of a region from its detector kind and side (mechanics.regions): the slot-mouth and wall-corner
+    candidates of this pose (`slots`), the tip candidate on its side of the apex (none on the other side), or the
+    bottom corner on the slot bottom."""
+    if detector == SLOT_MOUTH:
+        return slots.mouth_leading if side > 0.0 else slots.mouth_trailing
+    if detector == WALL_CORNER:
+        return slots.bottom_leading if side > 0.0 else slots.bottom_trailing
+    if detector == TIP:
+        return tip.candidate if (tip.sin_contact_angle > 0.0) == (side > 0.0) else NONE
+    return slot_floor_contact(side, pose, m)
 
 
 @kernel

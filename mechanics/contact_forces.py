@@ -1,4 +1,4 @@
-"""Contact forces of the six regions on the vane, and their reactions on the rotor and the stator
+"""Contact forces of the contact regions (mechanics.regions) on the vane, and their reactions on the rotor and the stator
 (docs/model.md §5.1-§5.4).
 
 For each region in contact: the elastic force and its hysteresis damping along n, regularised friction against the
@@ -9,20 +9,21 @@ import math
 from typing import NamedTuple
 
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
-from .contact import NONE
+from .contact import region_candidate
 from .contact_laws import elastic_force, friction_coefficient_effective, normal_force
 from .layout import MEM_ONSET_VELOCITY
 from .outputs import O
-from .regions import REGION_BODY, REGION_COUNT, REGION_MEMORY_SLOT, ROTOR
+from .regions import REGION_BODY, REGION_COUNT, REGION_DETECTOR, REGION_MEMORY_SLOT, REGION_SIDE, ROTOR
 
 
 class ContactLoads(NamedTuple):
     """Resultants of the contact forces (docs/model.md §5.4): on the vane (force, moment about G), the reactions on
     the rotor (force, moment about O: Q2phi) and on the stator (force, moment about O: lambda3), the friction and
-    damping powers, the stored elastic energy, the contact-mode mask and the largest penetration beyond a force
-    law's validity limit."""
+    damping powers, the power of the elastic forces sum F_el delta_dot and the stored elastic energy (the two
+    differ where a stiffness changes in a closed contact, docs/model.md §6.4), the contact-mode mask and the
+    largest penetration beyond a force law's validity limit."""
     vane_fx: float
     vane_fy: float
     vane_moment: float
@@ -34,26 +35,10 @@ class ContactLoads(NamedTuple):
     stator_moment: float
     friction_power: float
     damping_power: float
+    elastic_power: float
     elastic_energy: float
     mode: int
     law_excess: float
-
-
-@kernel
-def region_candidate(region, slots, tip, tip_region):
-    """The candidate of `region` (0-based): c1-c4 from the slot detectors, c5 or c6 from the tip detector (the
-    one on the side of the apex where the contact point lies), none for the other tip region."""
-    if region == 0:
-        return slots.mouth_leading
-    if region == 1:
-        return slots.mouth_trailing
-    if region == 2:
-        return slots.bottom_leading
-    if region == 3:
-        return slots.bottom_trailing
-    if region == tip_region:
-        return tip.candidate
-    return NONE
 
 
 @kernel
@@ -62,17 +47,16 @@ def contact_loads(pose, slots, tip, memory, m, out):
     penetration_rate of each region into the output row `out`.
 
     F_n = F_el(delta) [1 + 3(1 - c_e^2)/4 delta_dot/delta_dot^-],  F_t = -mu_eff(|v_t|) F_n v_t/|v_t|,
-    P_fric = sum mu_eff F_n |v_t|,  P_damp = sum (F_n - F_el) delta_dot.
+    P_fric = sum mu_eff F_n |v_t|,  P_damp = sum (F_n - F_el) delta_dot,  P_el = sum F_el delta_dot.
     """
     p = pose
     vane_fx = vane_fy = vane_moment = 0.0
     rotor_fx = rotor_fy = rotor_moment = 0.0
     stator_fx = stator_fy = stator_moment = 0.0
-    friction_power = damping_power = elastic_energy = law_excess = 0.0
+    friction_power = damping_power = elastic_power = elastic_energy = law_excess = 0.0
     mode = 0
-    tip_region = 4 if tip.sin_contact_angle > 0.0 else 5
     for region in range(REGION_COUNT):
-        contact = region_candidate(region, slots, tip, tip_region)
+        contact = region_candidate(REGION_DETECTOR[region], REGION_SIDE[region], slots, tip, pose, m)
         out[O.normal_force + region] = 0.0
         out[O.friction_force + region] = 0.0
         if contact.penetration == -math.inf:      # no valid candidate in this region: not applicable
@@ -112,6 +96,7 @@ def contact_loads(pose, slots, tip, memory, m, out):
             friction_power += friction * slip
             out[O.friction_force + region] = friction
         damping_power += (force_n - elastic) * rate
+        elastic_power += elastic * rate
         elastic_energy += energy
         out[O.normal_force + region] = force_n
         # same application point on both bodies (docs/model.md §5.4)
@@ -128,4 +113,4 @@ def contact_loads(pose, slots, tip, memory, m, out):
             stator_fy -= fy
             stator_moment += reaction_moment
     return ContactLoads(vane_fx, vane_fy, vane_moment, rotor_fx, rotor_fy, rotor_moment, stator_fx, stator_fy,
-                        stator_moment, friction_power, damping_power, elastic_energy, mode, law_excess)
+                        stator_moment, friction_power, damping_power, elastic_power, elastic_energy, mode, law_excess)

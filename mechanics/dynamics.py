@@ -12,13 +12,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import kernel
-from rotary_vane.thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
+from ..thermo.kernel import kernel
+from ..thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
                                              ChamberInputs, chamber_energy, chamber_rates)
-from rotary_vane.thermo.flow_paths import PATH
-from rotary_vane.thermo.leakage import parabolic_flank_length, tapered_gap_length
-from rotary_vane.thermo.property_table import PropertyTable
-from rotary_vane.thermo.real_gas_nozzle import NozzleTable
+from ..thermo.flow_paths import PATH
+from ..thermo.leakage import parabolic_flank_length, tapered_gap_length
+from ..thermo.property_table import PropertyTable
+from ..thermo.real_gas_nozzle import NozzleTable
 
 from .chamber_geometry import SectorTable, chamber_geometry
 from .contact import slot_contacts, tip_contact
@@ -26,8 +26,8 @@ from .contact_forces import contact_loads
 from .gas_loads import combine, gap_moment, gas_load_basis, slot_side
 from .kinematics import pose_of, reported_kinematics, vane_pose
 from .layout import (ANGULAR_VELOCITY, ANGLE, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT,
-                     MEM_LOBE_START, TIP_ON_FLAT_FACE, VANE_BOTTOMED, VX, VY, WORK_DAMPING, WORK_FRICTION, WORK_IN,
-                     WORK_OUT, X, Y)
+                     MEM_LOBE_START, TIP_ON_FLAT_FACE, VX, VY, WORK_DAMPING, WORK_ELASTIC, WORK_FRICTION,
+                     WORK_IN, WORK_OUT, X, Y)
 from .machine import REAL_GAS_MODEL
 from .outputs import O, OUTPUT_NAMES, REAL_GAS_COLUMNS
 
@@ -122,7 +122,7 @@ def chamber_powers(geometry, pressures):
 def equations_of_motion(pose, contacts, gas, m, dydt):
     """Reduced equations of motion (docs/model.md §3.1) and the work integrals (§6.4); returns (a_x, a_y, alpha,
     T_d):  q_ddot3 = Q3/[m3, m3, J3];  lambda6 = Q2phi - J2 theta_ddot;  T_d = -lambda6;
-    dW_in/dt = T_d omega,  dW_out/dt = -P_gas,  dW_fric/dt = P_fric,  dW_damp/dt = P_damp."""
+    dW_in/dt = T_d omega,  dW_out/dt = -P_gas,  dW_fric/dt = P_fric,  dW_damp/dt = P_damp,  dW_el/dt = P_el."""
     ax = (contacts.vane_fx + gas.fx) / m.vane_mass
     ay = (contacts.vane_fy + gas.fy) / m.vane_mass
     alpha = (contacts.vane_moment + gas.moment) / m.vane_inertia
@@ -137,6 +137,7 @@ def equations_of_motion(pose, contacts, gas, m, dydt):
     dydt[WORK_OUT] = -gas.power
     dydt[WORK_FRICTION] = contacts.friction_power
     dydt[WORK_DAMPING] = contacts.damping_power
+    dydt[WORK_ELASTIC] = contacts.elastic_power
     return ax, ay, alpha, driving_torque
 
 
@@ -190,6 +191,7 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
     out[O.work_out] = y[WORK_OUT]
     out[O.work_friction] = y[WORK_FRICTION]
     out[O.work_damping] = y[WORK_DAMPING]
+    out[O.work_elastic] = y[WORK_ELASTIC]
     for k in range(REAL_GAS_COLUMN_COUNT):
         out[REAL_GAS_FIRST_COLUMN + k] = math.nan
 
@@ -217,7 +219,9 @@ def report_chambers(out, y, inputs, flows, leading, trailing, c, table):
 
 @kernel
 def pose_stages(t, y, ctx, memory):
-    """The pressure-independent stages of an evaluation: pose, contact candidates, slot sides, unit gas loads."""
+    """The pressure-independent stages of an evaluation: pose, the slot and tip candidates (the features the regions
+    of mechanics.regions and the gas loads share; contact_loads builds the region candidates from them), slot sides,
+    unit gas loads."""
     m = ctx.machine[0]
     pose = vane_pose(t, y, ctx.law, m)
     slots = slot_contacts(pose, m)
@@ -256,8 +260,6 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     status = 0
     if tip.cos_contact_angle < 0.0:
         status = TIP_ON_FLAT_FACE
-    if min(slots.bottom_leading.radius, slots.bottom_trailing.radius) <= m.slot_bottom_radius:
-        status = VANE_BOTTOMED
     contacts = contact_loads(pose, slots, tip, memory, m, out)
     real_gas = m.pressure_model == REAL_GAS_MODEL
     if real_gas or report:

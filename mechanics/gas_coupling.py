@@ -17,14 +17,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rotary_vane.thermo.chamber_model import chamber_constants
-from rotary_vane.thermo.gas_reference import GasReference
-from rotary_vane.thermo.flow_paths import FlowNode
-from rotary_vane.thermo.leakage import LEAKAGE_LAWS
-from rotary_vane.thermo.operating_point import operating_point_for
-from rotary_vane.thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
+from ..thermo.chamber_model import chamber_constants
+from ..thermo.gas_reference import GasReference
+from ..thermo.flow_paths import FlowNode
+from ..thermo.leakage import LEAKAGE_LAWS
+from ..thermo.operating_point import operating_point_for
+from ..thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
     table_state
-from rotary_vane.thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
+from ..thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
                                                nozzle_table_arrays, nozzle_table_for, real_gas_mass_flux)
 
 from .geometry import lobe_area, valley_seal_length

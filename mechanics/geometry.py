@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 from .displacement import DISPLACEMENT_LAWS, displacement, displacement_given_trig
 

@@ -17,10 +17,10 @@ import math
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import copy_values, kernel
-from rotary_vane.thermo.chamber_model import gas_tolerance, switch_chambers
-from rotary_vane.thermo.property_table import table_from_arrays
-from rotary_vane.thermo.real_gas_nozzle import nozzle_table_from_arrays
+from ..thermo.kernel import copy_values, kernel
+from ..thermo.chamber_model import gas_tolerance, switch_chambers
+from ..thermo.property_table import table_from_arrays
+from ..thermo.real_gas_nozzle import nozzle_table_from_arrays
 
 from .chamber_geometry import SectorTable
 from .dynamics import KernelContext, chamber_inputs_at, evaluate
@@ -29,7 +29,7 @@ from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_
                      RECORD_FULL, STEP_TOO_SMALL, VX, VY, X, Y)
 from .machine import ABM4, REAL_GAS_MODEL
 from .outputs import O
-from .regions import REGION_BODY, REGION_COUNT, REGION_MEMORY_SLOT, STATOR, TIP_REGIONS
+from .regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
 from .speed import ramp_end_time, rotor_motion, time_of_angle
 from .windows import accumulate, close_window
 
@@ -126,16 +126,18 @@ def _opened_too_deep(out, memory, m):
 def _update_memory(out, memory, m):
     """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed."""
     memory[MEM_CLOSEST_OFFSET] = out[O.closest_parameter_offset]
-    tip_region = TIP_REGIONS[0] if out[O.contact_angle] > 0.0 else TIP_REGIONS[1]
-    for region in range(REGION_COUNT):
-        if REGION_BODY[region] == STATOR and region != tip_region:
-            continue
-        slot = MEM_ONSET_VELOCITY + REGION_MEMORY_SLOT[region]
-        if out[O.penetration + region] > 0.0:
-            if memory[slot] <= 0.0:
-                memory[slot] = max(abs(out[O.penetration_rate + region]), m.onset_velocity_floor)
-        else:
-            memory[slot] = 0.0
+    for slot in range(MEMORY_SLOTS):
+        touching = False
+        rate = 0.0
+        for region in range(REGION_COUNT):       # the regions sharing a slot touch one at a time (c5/c6)
+            if REGION_MEMORY_SLOT[region] == slot and out[O.penetration + region] > 0.0:
+                touching = True
+                rate = out[O.penetration_rate + region]
+        index = MEM_ONSET_VELOCITY + slot
+        if not touching:
+            memory[index] = 0.0
+        elif memory[index] <= 0.0:
+            memory[index] = max(abs(rate), m.onset_velocity_floor)
     memory[MEM_LAW_EXCESS] = max(memory[MEM_LAW_EXCESS], out[O.contact_law_excess])
     changed = out[O.contact_mode] != memory[MEM_MODE]
     memory[MEM_MODE] = out[O.contact_mode]

@@ -1,17 +1,18 @@
 """Index layout of the state and memory arrays the time loop shares with Python, and its status codes
 (docs/model.md §8.1). The output row's layout is in mechanics.outputs.
 
-- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp (docs/model.md §6.4);
+- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp and the work of the
+  elastic contact forces W_el (docs/model.md §6.4);
   under real gas the chamber model's state block follows (thermo.chamber_model, from GAS_BLOCK on);
 - memory: non-state values updated only after accepted steps (warm start, lobe, impact velocities, mode).
 """
-from rotary_vane.thermo.chamber_model import GAS_STATE_SIZE
+from ..thermo.chamber_model import GAS_STATE_SIZE
 
 from .regions import MEMORY_SLOTS
 
 # state vector
-X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING = range(10)
-VANE_STATE_SIZE = 10
+X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING, WORK_ELASTIC = range(11)
+VANE_STATE_SIZE = 11
 GAS_BLOCK = VANE_STATE_SIZE                      # first index of the chamber states (real gas)
 REAL_GAS_STATE_SIZE = VANE_STATE_SIZE + GAS_STATE_SIZE
 
@@ -25,11 +26,10 @@ MEM_LAW_EXCESS = MEM_MODE + 2  # largest penetration beyond a force law's validi
 MEMORY_SIZE = MEM_MODE + 3
 
 # kernel status codes (0 = reached the end time)
-REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, VANE_BOTTOMED, GAS_STATE_INVALID = range(7)
+REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, GAS_STATE_INVALID = range(6)
 STATUS_TEXT = {
     STEP_TOO_SMALL: "the step size fell below min_step",
     NOT_FINITE: "the state became non-finite",
     TIP_ON_FLAT_FACE: "the stator touches a flat face of the vane (|psi_c| > pi/2, docs/model.md §2.6)",
-    VANE_BOTTOMED: "the vane reached the slot bottom (docs/model.md §4.3)",
     GAS_STATE_INVALID: "a chamber state left the fluid property table (two-phase dome or outside its envelope)",
 }

@@ -2,7 +2,7 @@
 accumulated in the time loop (mechanics.windows)."""
 from .regions import REGION_COUNT, REGION_LABELS
 
-MODE_COUNT = 1 << REGION_COUNT                    # 6-bit masks
+MODE_COUNT = 1 << REGION_COUNT                    # one bit per region
 
 
 def mode_label(mask: int) -> str:

@@ -9,7 +9,7 @@ constant: `out[O.driving_torque]`), the FMU variables (fmu_src.compressor), and 
 and docs/model.md (docs/make_tables.py). Adding an output is one declaration here plus the line of the kernel
 that computes it.
 
-A declaration with `per_region=True` stands for one column per contact region, `<name>_1` ... `<name>_6`, and its
+A declaration with `per_region=True` stands for one column per contact region, `<name>_1` ... `<name>_<n>`, and its
 layout entry is the index of the first (`out[O.normal_force + region]`).
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .regions import REGION_COUNT
+from .regions import REGION_COUNT, REGION_LABELS, SLOT_REGIONS, TIP_REGIONS, labels_of
 
 STEP = "step"
 REVOLUTION = "revolution"
@@ -44,7 +44,7 @@ class Output:
 
 
 def _region_text(description: str) -> str:
-    return f"{description} (one column per contact region c1-c6)"
+    return f"{description} (one column per contact region {REGION_LABELS[0]}-{REGION_LABELS[-1]})"
 
 
 STEP_OUTPUTS = (
@@ -99,6 +99,8 @@ STEP_OUTPUTS = (
     Output("work_out", "J", "cumulative gas work on the vane and the rotor W_out"),
     Output("work_friction", "J", "cumulative friction work"),
     Output("work_damping", "J", "cumulative contact damping work"),
+    Output("work_elastic", "J", "cumulative work of the elastic contact forces, integral of sum F_el delta_dot "
+                                "(docs/model.md §6.4)"),
     Output("leading_volume", "m3", "leading-chamber volume with the dead volume (docs/model.md §7.2)"),
     Output("trailing_volume", "m3", "trailing-chamber volume with the dead volume (docs/model.md §7.2)"),
     Output("back_volume", "m3", "back-chamber volume: the slot below the vane's bottom face (docs/model.md §7.2)"),
@@ -176,14 +178,21 @@ FIGURES = (
     Figure("gap_power", "W", "mean power on the sweep of the open gaps (docs/model.md §6.4)", fmu="gap_power"),
     Figure("storage_power", "W", "change of the kinetic energy of vane and rotor and of the contact energy / "
                                  "duration"),
+    Figure("contact_switch_power", "W", "power the contact laws exchange where a stiffness changes in a closed "
+                                        "contact (a slot-mouth candidate switch, the stator curvature under the "
+                                        "tip): elastic-force work minus the change of the stored contact energy, "
+                                        "/ duration (docs/model.md §6.4)"),
     Figure("ledger_residual", "1", "energy ledger residual: (shaft work - indicated - gap - friction - damping - "
-                                   "stored) / shaft work (docs/model.md §6.4)", fmu="energy_ledger_residual"),
+                                   "stored - stiffness switches) / shaft work (docs/model.md §6.4)",
+           fmu="energy_ledger_residual"),
     Figure("driving_torque", "N.m", "mean driving torque: shaft work / angle turned"),
     Figure("stator_torque", "N.m", "time mean of the stator reaction moment"),
     Figure("gap_torque", "N.m", "time mean of the gap moment"),
     Figure("max_contact_force", "N", "largest normal force of any region", fmu="max_contact_force"),
-    Figure("max_slot_force", "N", "largest normal force of the slot regions c1-c4 (slot wear)", fmu="max_slot_force"),
-    Figure("max_tip_force", "N", "largest normal force of the tip regions c5, c6 (tip wear)", fmu="max_tip_force"),
+    Figure("max_slot_force", "N", f"largest normal force of the regions on the rotor, {labels_of(SLOT_REGIONS)} (slot "
+           "wear)", fmu="max_slot_force"),
+    Figure("max_tip_force", "N", f"largest normal force of the regions on the stator, {labels_of(TIP_REGIONS)} (tip "
+           "wear)", fmu="max_tip_force"),
     Figure("mode_count", "1", "distinct contact modes, a mode being the set of touching regions (docs/model.md "
                               "§4.6)", fmu="revolution_mode_count"),
     Figure("mode_count_extended", "1", "distinct contact modes, a mode being the set of touching regions and the "
@@ -212,8 +221,9 @@ FIGURE_NAMES = tuple(figure.name for figure in FIGURES)
 def markdown_table(declarations=STEP_OUTPUTS, figures=FIGURES) -> str:
     """The output tables of the README and docs/model.md: per-step columns, then per-window figures."""
     lines = ["| output | unit | per | pressure models | FMU variable | description |", "|---|---|---|---|---|---|"]
-    rows = [(", ".join(f"`{c}`" for c in (o.columns() if not o.per_region else (f"{o.name}_1..6",))), o.unit,
-             STEP, o.models, o.fmu and (f"`{o.fmu}_1..6`" if o.per_region else f"`{o.fmu}`"), o.description)
+    last = REGION_COUNT
+    rows = [(", ".join(f"`{c}`" for c in (o.columns() if not o.per_region else (f"{o.name}_1..{last}",))), o.unit,
+             STEP, o.models, o.fmu and (f"`{o.fmu}_1..{last}`" if o.per_region else f"`{o.fmu}`"), o.description)
             for o in declarations]
     rows += [(f"`{f.name}`", f.unit, REVOLUTION, f.models, f.fmu and f"`{f.fmu}`", f.description) for f in figures]
     for name, unit, per, models, fmu, description in rows:

@@ -13,10 +13,10 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
-from rotary_vane.thermo.choices import Choices
-from rotary_vane.thermo.fluid import UnknownFluidError
-from rotary_vane.thermo.leakage import LEAKAGE_LAWS
-from rotary_vane.thermo.operating_point import operating_point_for
+from ..thermo.choices import Choices
+from ..thermo.fluid import UnknownFluidError
+from ..thermo.leakage import LEAKAGE_LAWS
+from ..thermo.operating_point import operating_point_for
 
 from .contact_laws import FRICTION_MODELS, STIFFNESS_MODELS
 from .displacement import DISPLACEMENT_LAWS

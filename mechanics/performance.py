@@ -13,7 +13,7 @@ import numpy as np
 
 from .modes import MODE_COUNT, distinct_modes
 from .outputs import O, OUTPUT_SIZE
-from .regions import REGION_COUNT
+from .regions import REGION_COUNT, SLOT_REGIONS, TIP_REGIONS
 from .windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_GAP_WORK, ACC_INDICATED_WORK, ACC_LAW_EXCESS, ACC_MAX_FORCE,
                       ACC_MAX_TILT, ACC_STATOR_MOMENT, MASKS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_END, RECORD_LOBE,
                       RECORD_START)
@@ -30,15 +30,16 @@ class WindowSummary:
     friction_power: float         # <P_fric> [W]
     damping_power: float          # <P_damp> [W]
     mechanical_efficiency: float  # eta_m = <P_out>/<P_in>
-    energy_residual: float        # (W_in - W_out - W_fric - W_damp - dKE - dPE - J2 int(omega theta_ddot)) / W_in
+    energy_residual: float        # (W_in - W_out - W_fric - W_damp - dKE - dPE - W_switch - J2 int(omega theta_ddot)) / W_in
     indicated_power: float        # <-sum_chambers p dV/dt>, leading, trailing and back chambers [W]
     gap_power: float              # <sum_sigma p_sigma gap_sigma>, the open gaps' sweep [W]
     storage_power: float          # (dKE + dPE + 1/2 J2 d(omega^2)) / duration [W]
-    ledger_residual: float        # (W_in - W_ind - W_gap - W_fric - W_damp - stored) / W_in
+    contact_switch_power: float   # W_switch / duration = (W_el - dPE) / duration [W]
+    ledger_residual: float        # (W_in - W_ind - W_gap - W_fric - W_damp - stored - W_switch) / W_in
     driving_torque: float         # <T_d> = W_in / angle turned [N m]
     stator_torque: float          # <lambda3 + M_gas,stator> [N m]
     gap_torque: float             # <M_gap>, pressure moment on the gaps no body carries [N m]
-    max_normal_force: tuple       # max F_n per region c1..c6 [N]
+    max_normal_force: tuple       # max F_n per region, in the order of mechanics.regions.REGIONS [N]
     max_tilt: float               # max |phi3 - theta| [rad]
     contact_law_excess: float     # largest penetration beyond a force law's validity limit [m]
     mode_dwell: dict              # mode mask -> cumulative dwell [s]
@@ -63,13 +64,13 @@ class WindowSummary:
 
     @property
     def max_slot_force(self) -> float:
-        """Largest normal force of the slot regions c1-c4 [N]."""
-        return max(self.max_normal_force[:4])
+        """Largest normal force of the regions on the rotor (slot mouth, walls and bottom) [N]."""
+        return max(self.max_normal_force[i] for i in SLOT_REGIONS)
 
     @property
     def max_tip_force(self) -> float:
-        """Largest normal force of the tip regions c5, c6 [N]."""
-        return max(self.max_normal_force[4:])
+        """Largest normal force of the regions on the stator (the tip) [N]."""
+        return max(self.max_normal_force[i] for i in TIP_REGIONS)
 
     @property
     def mode_count(self) -> int:
@@ -104,15 +105,17 @@ def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: floa
     accumulators = records[:, RECORD_ACCUMULATORS:]
     duration = end[O.time] - start[O.time]
     work = {name: end[getattr(O, name)] - start[getattr(O, name)]
-            for name in ("work_in", "work_out", "work_friction", "work_damping")}
+            for name in ("work_in", "work_out", "work_friction", "work_damping", "work_elastic")}
     kinetic = end[O.kinetic_energy] - start[O.kinetic_energy]
     elastic = end[O.contact_energy] - start[O.contact_energy]
     rotor = 0.5 * rotor_inertia * (end[O.rotor_speed] ** 2 - start[O.rotor_speed] ** 2)
     stored = kinetic + elastic + rotor
-    residual = work["work_in"] - work["work_out"] - work["work_friction"] - work["work_damping"] - stored
+    switches = work["work_elastic"] - elastic     # the elastic forces' work that no potential stores
+    residual = (work["work_in"] - work["work_out"] - work["work_friction"] - work["work_damping"] - stored
+                - switches)
     indicated = accumulators[:, ACC_INDICATED_WORK].sum()
     gap = accumulators[:, ACC_GAP_WORK].sum()
-    ledger = work["work_in"] - indicated - gap - work["work_friction"] - work["work_damping"] - stored
+    ledger = work["work_in"] - indicated - gap - work["work_friction"] - work["work_damping"] - stored - switches
     angle_turned = end[O.rotor_angle] - start[O.rotor_angle]
     extended = accumulators[:, ACC_DWELL:ACC_DWELL + MODE_KEYS].sum(axis=0)
     by_mask = extended.reshape(-1, MASKS).sum(axis=0)
@@ -125,7 +128,8 @@ def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: floa
         friction_power=work["work_friction"] / duration, damping_power=work["work_damping"] / duration,
         mechanical_efficiency=work["work_out"] / work["work_in"], energy_residual=residual / work["work_in"],
         indicated_power=float(indicated / duration), gap_power=float(gap / duration),
-        storage_power=float(stored / duration), ledger_residual=float(ledger / work["work_in"]),
+        storage_power=float(stored / duration), contact_switch_power=float(switches / duration),
+        ledger_residual=float(ledger / work["work_in"]),
         driving_torque=work["work_in"] / angle_turned,
         stator_torque=float(accumulators[:, ACC_STATOR_MOMENT].sum() / duration),
         gap_torque=float(accumulators[:, ACC_GAP_MOMENT].sum() / duration),

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from rotary_vane.thermo import ideal_gas_pressure_table, polytropic_pressure_table
+from ..thermo import ideal_gas_pressure_table, polytropic_pressure_table
 
 from .displacement import displacement_on_grid
 from .geometry import law_arguments

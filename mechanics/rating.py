@@ -17,7 +17,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from rotary_vane.thermo.fluid import Fluid
+from ..thermo.fluid import Fluid
 
 from .parameters import CompressorParameters
 from .periodic_map import MapSettings, run_speed_point

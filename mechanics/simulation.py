@@ -13,10 +13,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
-from rotary_vane.thermo.fluid import Fluid
-from rotary_vane.thermo.property_table import describe_status, table_from_arrays, table_status
-from rotary_vane.thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
+from ..thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
+from ..thermo.fluid import Fluid
+from ..thermo.property_table import describe_status, table_from_arrays, table_status
+from ..thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
 
 from .chamber_geometry import sector_table
 from .displacement import displacement

@@ -9,15 +9,15 @@ extended contact mode. At each valley the loop writes
 one lobe record (`RECORD_*` layout: the start row, the end row, the accumulators) and starts the next window;
 mechanics.performance turns records into figures. Nothing of this runs in Python per accepted step.
 
-Extended mode key (docs/model.md §4.6): the 6-bit mask of touching regions plus, for c1 and c2 when touching,
-their slot-mouth candidate type: key = mask + 64 (type_1 + 4 type_2), 1024 keys. Counting distinct masks only
+Extended mode key (docs/model.md §4.6): the mask of touching regions (one bit per region, MASKS values) plus, for
+c1 and c2 when touching, their slot-mouth candidate type: key = mask + MASKS (type_1 + 4 type_2), 16 MASKS keys. Counting distinct masks only
 (summing over the types) gives the regions-only count.
 """
 import math
 
 import numpy as np
 
-from rotary_vane.thermo.kernel import kernel
+from ..thermo.kernel import kernel
 
 from .contact import CANDIDATE_TYPES
 from .outputs import O, OUTPUT_SIZE

@@ -199,6 +199,7 @@ class VaneGeometry:
         self.xi_t = tip_centre                         # xi_T = -xi_G (checked against docs/model.md in T2)
         self.xi_b = tip_centre - (params.vane_length - self.rho)
         self.edge = params.edge_radius
+        self.r_sb = params.slot_bottom_radius
         self.cs = params.stator_clearance
         self.d = self.rho + params.stator_clearance
         self.pitch = HarmonicPitch(params.rotor_radius - self.rho, params.stroke, params.lobes)
@@ -240,6 +241,13 @@ def reference_slot_bottom(side, g, phi, theta, v):
     return dict(delta=side * np.dot(corner, et) - v.w / 2, n=-side * et, P=corner, radius=v.edge, kind="corner")
 
 
+def reference_slot_floor(side, g, phi, theta, v):
+    """docs/model.md §4.4b for region c7 (side +1) / c8 (side -1): corner B vs the flat slot bottom at r_sb."""
+    er = rot(theta)
+    corner = g + v.xi_b * rot(phi) + side * 0.5 * v.t * perp(rot(phi))
+    return dict(delta=v.r_sb - np.dot(corner, er), n=er, P=corner, radius=v.edge, kind="corner")
+
+
 def reference_tip(g, phi, v):
     """docs/model.md §2.6/§4.4: tip circle vs stator at the closest point u* (reference brute force + root)."""
     tip = g + v.xi_t * rot(phi)
@@ -253,11 +261,11 @@ def reference_tip(g, phi, v):
 
 
 def reference_contacts(g, phi, theta, v):
-    """The six regions c1..c6 (None where there is no candidate; the tip is c5 if psi_c > 0 else c6)."""
+    """The eight regions c1..c8 (None where there is no candidate; the tip is c5 if psi_c > 0 else c6)."""
     tip = reference_tip(g, phi, v)
     regions = [reference_slot_mouth(1, g, phi, theta, v), reference_slot_mouth(-1, g, phi, theta, v),
                reference_slot_bottom(1, g, phi, theta, v), reference_slot_bottom(-1, g, phi, theta, v),
-               None, None]
+               None, None, reference_slot_floor(1, g, phi, theta, v), reference_slot_floor(-1, g, phi, theta, v)]
     regions[4 if tip["psi"] > 0 else 5] = tip
     return regions, tip
 
@@ -280,7 +288,7 @@ def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
     vane (Q3, about G), plus the powers of docs/model.md §6.4 and per-region details.
 
     state = (x3, y3, phi3, vx3, vy3, phi_dot3); onset[k] = stored approach velocity of slot k (0 = none;
-    slots 0-3 for c1-c4, 4 for the tip); pressures = (p_L, p_T, p_b).
+    slots 0-3 for c1-c4, 4 for the tip, 5-6 for c7-c8); pressures = (p_L, p_T, p_b).
     """
     v = VaneGeometry(params, tip_centre)
     e_star = effective_modulus_reference(params.youngs_modulus, params.poisson_ratio)
@@ -299,10 +307,11 @@ def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
             continue
         p, n = c["P"], c["n"]
         v_rel = vel + phi_dot * perp(p - g)
-        if k < 4:
+        on_rotor = k not in (4, 5)
+        if on_rotor:
             v_rel = v_rel - omega * perp(p)
         rate = -np.dot(v_rel, n)
-        stored = onset[min(k, 4)]
+        stored = onset[k if k < 4 else (4 if k < 6 else k - 1)]
         approach = stored if stored > 0 else max(abs(rate), params.onset_velocity_floor)
         stiffness = 4.0 / 3.0 * e_star * math.sqrt(c["radius"])
         elastic = stiffness * c["delta"] ** 1.5
@@ -317,7 +326,7 @@ def reference_forces(params, tip_centre, state, theta, omega, onset, pressures):
         damping_power += (normal - elastic) * rate
         force_scale += np.linalg.norm(force)
         q3 += [force[0], force[1], cross(p - g, force)]
-        target = q2 if k < 4 else q1
+        target = q2 if on_rotor else q1
         target += [-force[0], -force[1], cross(p, -force)]
         details.append(dict(region=k, normal=normal, force=force, P=p, elastic=elastic))
     # gas on the vane (docs/model.md §6.2)
@@ -380,12 +389,14 @@ def contact_reference():
                            rot=rot, perp=perp, cross=cross)
 
 
-def evaluate_at(sim, t, vane_state, onset=(0.0,) * 5):
+def evaluate_at(sim, t, vane_state, onset=None):
     """The kernel RHS of a Simulation (`Simulation.evaluate`) at time t and vane state (x3, y3, phi3, vx3, vy3,
-    phi_dot3), with the stored approach velocities `onset` (slots c1..c4, tip). The closest-point warm start is 0
+    phi_dot3), with the stored approach velocities `onset` (one per memory slot of mechanics.regions; none stored
+    if omitted). The closest-point warm start is 0
     (a start at atan2(T) for the offset convention; any start is valid, the Brent safeguard covers the rest).
     Returns (status, dydt, outputs as a dict)."""
     from rotary_vane.mechanics.layout import MEM_LOBE_START, MEM_ONSET_VELOCITY, MEMORY_SIZE
+    from rotary_vane.mechanics.regions import MEMORY_SLOTS
     from rotary_vane.mechanics.speed import rotor_motion
 
     y = sim.state.copy()
@@ -394,7 +405,7 @@ def evaluate_at(sim, t, vane_state, onset=(0.0,) * 5):
     theta = rotor_motion(t, sim.speed_law)[0]
     lobe = 2 * math.pi / sim.params.lobes
     memory[MEM_LOBE_START] = math.floor(theta / lobe) * lobe
-    memory[MEM_ONSET_VELOCITY:MEM_ONSET_VELOCITY + 5] = onset
+    memory[MEM_ONSET_VELOCITY:MEM_ONSET_VELOCITY + MEMORY_SLOTS] = (0.0,) * MEMORY_SLOTS if onset is None else onset
     return sim.evaluate(t, y, memory)
 
 

@@ -10,11 +10,13 @@ from scipy.integrate import solve_ivp
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
 from rotary_vane.mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, slot_bottom_contact,
+                                            slot_floor_contact,
                                            slot_mouth_contact, tip_contact)
 from rotary_vane.mechanics.contact_laws import (elastic_force, friction_coefficient_effective, hertz_stiffness,
                                                 normal_force)
 from rotary_vane.mechanics.kinematics import pose_of
 from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.regions import MEMORY_SLOTS, REGION_COUNT
 
 RPM = 2 * math.pi / 60
 E_STAR_MODEL_DOC = 113.7e9        # docs/model.md §5.2 / §9
@@ -89,8 +91,9 @@ def test_normal_force_damping_factor_and_no_adhesion(check):
 
 
 def test_no_force_when_contacts_are_open(reference, kernel):
-    """F(delta <= 0) = 0: a vane retracted from the stator and centred in a slot with clearance has all six
-    penetrations <= 0, zero normal and friction forces, contact mode 0 and no contact power."""
+    """F(delta <= 0) = 0: a vane retracted from the stator and centred in a slot with clearance has all
+    penetrations <= 0 (the bottom corners clear the slot bottom), zero normal and friction forces, contact mode 0 and
+    no contact power."""
     p = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3, pressure_model="ideal_gas_table")
     sim = Simulation(p, constant_speed(1500.0), initial_angle=0.0)
     xi_t = sim.machine.tip_centre
@@ -102,15 +105,15 @@ def test_no_force_when_contacts_are_open(reference, kernel):
             tip = ref.point(theta) + (p.stator_clearance - gap) * ref.normal(theta)
             cg = tip - xi_t * er
             state = (*cg, theta, 1.0, -2.0, 150.0)
-            status, dydt, out = kernel.evaluate_at(sim, time, state, onset=(0.1,) * 5)
+            status, dydt, out = kernel.evaluate_at(sim, time, state, onset=(0.1,) * MEMORY_SLOTS)
             assert abs(out["rotor_angle"] - theta) < 1e-12
             assert status == 0
-            for k in range(1, 7):
+            for k in range(1, REGION_COUNT + 1):
                 # delta <= 0, or NaN where the region has no valid candidate (the tip's other quarter)
                 assert not out[f"penetration_{k}"] > 0
                 assert out[f"normal_force_{k}"] == 0 and out[f"friction_force_{k}"] == 0
             assert out["contact_mode"] == 0
-            assert dydt[8] == 0 and dydt[9] == 0 and out["contact_energy"] == 0
+            assert dydt[8] == 0 and dydt[9] == 0 and dydt[10] == 0 and out["contact_energy"] == 0
             assert out["stator_force_x"] == 0 and out["rotor_force_x"] == 0
 
 
@@ -436,6 +439,37 @@ def test_mirror_symmetry_of_slot_regions(check, radial, lateral, tilt, clearance
             assert np.allclose(reflect(point(a), theta), point(b), rtol=0, atol=1e-15)
             assert (a.vane_curvature, a.other_curvature, a.radius, a.kind) == pytest.approx(
                 (b.vane_curvature, b.other_curvature, b.radius, b.kind), rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.2e-3])
+def test_slot_bottom_regions_match_reference_and_mirror(check, contact_reference, clearance):
+    """c7/c8, the bottom corners on the slot bottom (docs/model.md §4.4b): with the vane pushed 2.4-2.6 mm into its
+    slot (the corners clear the bottom by 2.5 mm at zero stroke), delta, normal, point and R* match the reference
+    r_sb - B.e_r evaluated independently; reflecting the vane about the slot centreline swaps c7 <-> c8."""
+    p, m, v = machine_and_geometry(contact_reference, slot_clearance=clearance, stator_clearance=clearance)
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    touching = 0
+    for _ in range(200):
+        theta = rng.uniform(0, 2 * math.pi)
+        g, phi = pose(theta, rng.uniform(-2.6e-3, -2.4e-3), rng.uniform(-0.1e-3, 0.1e-3), rng.uniform(-4e-3, 4e-3),
+                      p, m.tip_centre)
+        refs, _ = contact_reference.contacts(g, phi, theta, v)
+        vane = pose_of(g[0], g[1], phi, theta, m)
+        mirror = pose_of(*reflect(g, theta), 2 * theta - phi, theta, m)
+        for side, expected in ((1.0, refs[6]), (-1.0, refs[7])):
+            got = slot_floor_contact(side, vane, m)
+            touching += got.penetration > 0
+            worst = max(worst, abs(got.penetration - expected["delta"]) / 1e-3)
+            assert np.allclose(normal(got), expected["n"], rtol=0, atol=1e-12)
+            assert np.allclose(point(got), expected["P"], rtol=0, atol=1e-15)
+            assert abs(1 / (got.vane_curvature + got.other_curvature) / expected["radius"] - 1) < 1e-12
+            partner = slot_floor_contact(-side, mirror, m)
+            check("slot bottom |delta - delta_mirror| [m] / 1 mm", abs(got.penetration - partner.penetration) / 1e-3,
+                  1e-12)
+            assert np.allclose(reflect(point(got), theta), point(partner), rtol=0, atol=1e-15)
+    check("slot bottom delta vs docs/model.md §4.4b reference [m] / 1 mm", worst, 1e-12)
+    assert 50 < touching < 350
 
 
 @pytest.mark.parametrize("lobes", [3, 5])

@@ -9,6 +9,7 @@ import pytest
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, linear_ramp
 from rotary_vane.mechanics.kinematics import pose_of, reported_kinematics
 from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.regions import MEMORY_SLOTS
 from rotary_vane.mechanics.speed import rotor_motion
 
 RPM = 2 * math.pi / 60
@@ -228,7 +229,7 @@ def random_states(sim, count, seed, reference):
         cg = tip - xi_t * np.array([math.cos(phi), math.sin(phi)])
         r_g = p.base_radius + s - xi_t
         velocity = s1 * omega * er + r_g * omega * et + rng.uniform(-0.05, 0.05, 2)
-        onset = np.where(rng.uniform(size=5) < 0.5, 0.0, rng.uniform(0.02, 0.5, 5))
+        onset = np.where(rng.uniform(size=MEMORY_SLOTS) < 0.5, 0.0, rng.uniform(0.02, 0.5, MEMORY_SLOTS))
         states.append((t, theta, omega, theta_ddot, np.array([*cg, phi, *velocity, omega + rng.uniform(-5, 5)]),
                        onset))
     return states

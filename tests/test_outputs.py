@@ -45,3 +45,40 @@ def test_every_declared_figure_is_a_summary_attribute():
     fields = {f.name for f in dataclasses.fields(WindowSummary)}
     properties = {name for name, value in vars(WindowSummary).items() if isinstance(value, property)}
     assert {f.name for f in FIGURES} <= fields | properties
+
+
+ADD_A_REGION = r'''
+import sys, types
+path = sys.argv[1]
+source = open(path).read().replace(
+    "REGION_COUNT = len(REGIONS)",
+    'REGIONS = REGIONS + (Region("c9", "test corner", ROTOR, 7, FLOOR_CORNER, 1.0),)\nREGION_COUNT = len(REGIONS)')
+module = types.ModuleType("rotary_vane.mechanics.regions")
+module.__file__ = path
+exec(compile(source, path, "exec"), module.__dict__)
+sys.modules[module.__name__] = module
+from rotary_vane.mechanics import layout, modes, outputs, performance, windows
+assert "normal_force_9" in outputs.OUTPUT_NAMES and "penetration_rate_9" in outputs.OUTPUT_NAMES
+made = {o.name: o for o in outputs.fmu_outputs()}
+assert made["contact_force_9"].source == "normal_force_9" and "region c9" in made["contact_force_9"].description
+assert "`normal_force_1..9`" in outputs.markdown_table() and "c9 (slot wear)" in outputs.markdown_table()
+assert layout.MEMORY_SIZE == layout.MEM_MODE + 3 and layout.MEM_MODE == layout.MEM_ONSET_VELOCITY + 8
+assert modes.MODE_COUNT == 512 and windows.MASKS == 512 and modes.mode_label(1 << 8) == "c9"
+assert 8 in performance.SLOT_REGIONS
+print("ok")
+'''
+
+
+def test_adding_a_region_is_one_declaration():
+    """docs/model.md §14.1: a ninth region declared in the table (a copy of mechanics/regions.py with one more
+    entry, loaded in a fresh interpreter) appears in the output columns, the FMU outputs, the docs table, the
+    memory layout, the mode masks and the rotor-force group, with no other edit."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import rotary_vane.mechanics.regions as regions
+    result = subprocess.run([sys.executable, "-c", ADD_A_REGION, str(Path(regions.__file__))], capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert result.stdout.strip().endswith("ok")
