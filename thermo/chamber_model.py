@@ -29,7 +29,8 @@ from .chamber_state import (CHAMBER_STATES, ENERGY_BACK_CHAMBER, ENERGY_DISCHARG
                             GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_BACK_CHAMBER, MASS_DISCHARGE,
                             MASS_SUCTION, TRAILING_MASS, TRAILING_TEMPERATURE, WORK_CHAMBERS)
 from .control_volume import chamber_derivatives, internal_energy_temperature
-from .flow_paths import FLOW_PATHS, INPUT_GAP, FlowNode, network_of, path_flows, sum_flows
+from .flow_paths import (BACK, FLOW_PATHS, INPUT_GAP, LEADING, SUCTION, TRAILING, FlowNode, network_tables,
+                         node_pairs, path_flows, set_node, sum_flows)
 from .kernel import kernel, kernel_record
 from .leakage import LAW_NOZZLE
 from .property_table import table_properties, table_state
@@ -58,15 +59,21 @@ def path_value_names(paths=FLOW_PATHS) -> set[str]:
 
 def chamber_constants(paths=FLOW_PATHS, **values) -> np.ndarray:
     """The model's constants as a one-row structured array: every CONSTANT_FIELDS entry and every constant the path
-    rows name must be given (SI units; laws as thermo.leakage codes); numba reads its fields by name, and the paths'
-    as arrays indexed by path (`path_law[p]`, ...)."""
+    rows name must be given (SI units; laws as thermo.leakage codes); numba reads its fields by name. The path table
+    is resolved into arrays indexed by path: the values its rows name (`path_law[p]`, ...) and its integer tables
+    (thermo.flow_paths.network_tables: `path_source[p]`, ..., `pair_first[k]`, `pair_second[k]`)."""
     required = set(CONSTANT_FIELDS) | path_value_names(paths)
     missing = required - set(values)
     unknown = set(values) - required
     if missing or unknown:
         raise ValueError(f"chamber constants: missing {sorted(missing)}, unknown {sorted(unknown)}")
+    tables = {f"path_{name}": np.asarray(table) for name, table in
+              network_tables(paths, ChamberInputs._fields).items()}
+    pairs = np.array(node_pairs(paths))
+    tables.update(pair_first=pairs[:, 0], pair_second=pairs[:, 1])
     dtype = np.dtype([(name, np.float64) for name in CONSTANT_FIELDS]
-                     + [(f"path_{field}", np.float64, (len(paths),)) for field in PATH_FIELDS])
+                     + [(f"path_{field}", np.float64, (len(paths),)) for field in PATH_FIELDS]
+                     + [(name, table.dtype, table.shape) for name, table in tables.items()])
     constants = np.zeros(1, dtype=dtype)
     for name in CONSTANT_FIELDS:
         constants[name] = float(values[name])
@@ -76,6 +83,8 @@ def chamber_constants(paths=FLOW_PATHS, **values) -> np.ndarray:
             from_inputs = path.opening == INPUT_GAP and field in ("size", "flow_length")
             value = 0.0 if from_inputs else float(values[name]) if name else PORT_DEFAULTS[field]
             constants[f"path_{field}"][0, p] = value
+    for name, table in tables.items():
+        constants[name][0] = table
     return kernel_record(constants)
 
 
@@ -96,9 +105,6 @@ class ChamberInputs(NamedTuple):
     slot_flow_length_leading: float
     slot_gap_trailing: float
     slot_flow_length_trailing: float
-
-
-NETWORK = network_of(FLOW_PATHS, ChamberInputs._fields)
 
 
 @kernel
@@ -124,11 +130,12 @@ def chamber_fluid_states(y, block, inputs, c, table):
 
 
 @kernel
-def chamber_rates(y, block, inputs, c, table, nozzles, rates, network=NETWORK):
+def chamber_rates(y, block, inputs, c, table, nozzles, rates, work):
     """Fill the state block's derivatives (from index `block` of `rates`) at the state block of y (from `block`)
-    (docs/model.md §7.3-§7.4); return (ChamberFlows, leading FluidState, trailing FluidState). The flows of the
-    network's paths (thermo.flow_paths.path_flows) are summed per node (sum_flows) into dm/dt and the enthalpy
-    inflow of each chamber, which thermo.control_volume.chamber_derivatives turns into
+    (docs/model.md §7.3-§7.4); return (FlowStatus, leading FluidState, trailing FluidState). The nodes' states go
+    into the flow network's working values `work` (thermo.flow_paths.flow_work), the flows of its paths
+    (path_flows, then in `work.mass_flow`) are summed per node (sum_flows) into dm/dt and the enthalpy inflow of
+    each chamber, which thermo.control_volume.chamber_derivatives turns into
 
         dT/dt = [ -T (dp/dT)_rho (dV/dt - v dm/dt) - h dm/dt + sum m_in h_up - sum m_out h ] / (m c_v)
     """
@@ -139,10 +146,12 @@ def chamber_rates(y, block, inputs, c, table, nozzles, rates, network=NETWORK):
     density_leading = y[block + LEADING_MASS] / volume_leading
     density_trailing = y[block + TRAILING_MASS] / volume_trailing
     suction, back = boundary_nodes(c)
-    nodes = (suction, FlowNode(t_l, density_leading, leading.pressure, leading.enthalpy),
-             FlowNode(t_t, density_trailing, trailing.pressure, trailing.enthalpy), back)
-    flows = path_flows(inputs, c, nodes, nozzles, network)
-    sum_flows(flows, nodes, rates, block, network)
+    set_node(work, SUCTION, suction)
+    set_node(work, LEADING, FlowNode(t_l, density_leading, leading.pressure, leading.enthalpy))
+    set_node(work, TRAILING, FlowNode(t_t, density_trailing, trailing.pressure, trailing.enthalpy))
+    set_node(work, BACK, back)
+    status = path_flows(inputs, c, work, nozzles)
+    sum_flows(c, work, rates, block)
     rates[block + LEADING_TEMPERATURE] = chamber_derivatives(
         t_l, density_leading, volume_leading, inputs.rate_leading, rates[block + LEADING_MASS],
         rates[block + LEADING_TEMPERATURE], 0.0, leading.enthalpy, leading.heat_capacity_v,
@@ -152,7 +161,7 @@ def chamber_rates(y, block, inputs, c, table, nozzles, rates, network=NETWORK):
         rates[block + TRAILING_TEMPERATURE], 0.0, trailing.enthalpy, trailing.heat_capacity_v,
         trailing.pressure_temperature_derivative, 0.0)[0]
     rates[block + WORK_CHAMBERS] = -(leading.pressure * inputs.rate_leading + trailing.pressure * inputs.rate_trailing)
-    return flows, leading, trailing
+    return status, leading, trailing
 
 
 @kernel

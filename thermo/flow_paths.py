@@ -4,8 +4,9 @@ mass and energy per node (`sum_flows`), as PDSim's FlowPath and sumterms do.
 
 Nodes (`NODES`): the suction plenum, which is also every idle lobe (open to its own suction port with a constant
 volume, its state stays at suction conditions), the leading (L) and trailing (T) chambers, and the back node: the
-discharge plenum and the back chamber, both at p_d on the suction isentrope. The routines take the nodes' states
-(`FlowNode`) as an argument, the boundary nodes' with the chambers'.
+discharge plenum and the back chamber, both at p_d on the suction isentrope. The routines read every node's state
+(`FlowNode`) from the network's working values (`flow_work`), where the caller writes the chambers' and the
+boundary nodes' states (`set_node`).
 
 A path runs from its source node to its target node (its flow is positive in that direction) through a section
 set by its opening:
@@ -15,32 +16,31 @@ set by its opening:
   FIXED_GAP: a gap of constant height and friction-equivalent length;
   INPUT_GAP: a gap whose height and friction-equivalent length are fields of the chambers' ChamberInputs.
 Its law and coefficient (thermo.leakage; a port is the nozzle law through its area), and the size, width and flow
-length of its section, are named constants of the chamber model: thermo.chamber_model.chamber_constants resolves
-the names of every row into per-path arrays of the constants record (`path_law`, `path_coefficient`, `path_size`,
-`path_width`, `path_flow_length`). Its `ledger` names the cumulative boundary flow of the state block it crosses
-(`BOUNDARY_FLOWS`; "" for a path between the two chambers).
+length of its section, are named constants of the chamber model. Its `ledger` names the cumulative boundary flow of
+the state block it crosses (`BOUNDARY_FLOWS`; "" for a path between the two chambers).
 
 Every path is a real-fluid isentropic nozzle (thermo.real_gas_nozzle, choked flow included) with its law: the
 nozzle flux is looked up once per pair of nodes with an open path between them and serves every path of that pair.
 A path whose throat is the gas-branch (metastable) continuation (nozzle status 8) is accepted and counted
-(`ChamberFlows.metastable`); a pair whose upstream state the nozzle table refuses (status 1-7) gives its paths a NaN
-flow and is counted in `ChamberFlows.refused`, which the loop treats as an invalid gas state.
+(`FlowStatus.metastable`); a pair whose upstream state the nozzle table refuses (status 1-7) gives its paths a NaN
+flow and is counted in `FlowStatus.refused`, which the loop treats as an invalid gas state.
 
-The routines loop over a `Network` (`network_of` a path table): tuples of integer codes, which
-thermo.chamber_model.chamber_rates receives as the default argument NETWORK, so that they are compile-time constants
-of the compiled loop (a test may pass another network; it compiles a variant).
+The table is data at run time: thermo.chamber_model.chamber_constants resolves every row into per-path arrays of
+the constants record, the named values (`path_law`, `path_coefficient`, `path_size`, `path_width`,
+`path_flow_length`) and the integer tables of `network_tables` (`path_source`, `path_pair`, ..., and per node pair
+`pair_first`, `pair_second`), so the routines are plain loops over array entries and another table (a test's
+extra row) needs no other code.
 """
 from __future__ import annotations
 
 from typing import NamedTuple
 
-from numba.cpython.unsafe.tuple import tuple_setitem
-from numba.extending import overload
+import numpy as np
 
 from .chamber_state import (ENERGY_BACK_CHAMBER, ENERGY_DISCHARGE, ENERGY_SUCTION, LEADING_MASS, LEADING_TEMPERATURE,
                             MASS_BACK_CHAMBER, MASS_DISCHARGE, MASS_SUCTION, TRAILING_MASS, TRAILING_TEMPERATURE)
 from .control_volume import port_coverage
-from .kernel import kernel
+from .kernel import kernel, kernel_record
 from .leakage import leakage_path_open, real_gas_leakage_flow
 from .property_table import STATUS_OK
 from .real_gas_nozzle import STATUS_THROAT_NEAR_SATURATION, nozzle_flux_between
@@ -75,6 +75,9 @@ class BoundaryFlow(NamedTuple):
 BOUNDARY_FLOWS = (BoundaryFlow("suction_side", MASS_SUCTION, ENERGY_SUCTION, 1.0),
                   BoundaryFlow("discharge", MASS_DISCHARGE, ENERGY_DISCHARGE, -1.0),
                   BoundaryFlow("back_chamber", MASS_BACK_CHAMBER, ENERGY_BACK_CHAMBER, 1.0))
+# every state-block slot sum_flows fills
+BALANCE_SLOTS = tuple(sorted({slot for balance in CHAMBER_BALANCES.values() for slot in balance}
+                             | {slot for flow in BOUNDARY_FLOWS for slot in (flow.mass, flow.energy)}))
 
 
 class FlowPath(NamedTuple):
@@ -113,28 +116,22 @@ FLOW_PATHS = (
 )
 
 
-class Network(NamedTuple):
-    """A path table as the kernels read it: per path (in table order) its nodes, opening, the ChamberInputs indices
-    of an INPUT_GAP, its node pair and orientation in it (+1: source -> target is the pair's a -> b), the state-block
-    offsets of its source's and target's balances and of its boundary flow (-1: none) with the sign it is booked
-    with; the node pairs (a < b); every offset `sum_flows` fills; a zero per path."""
-    source: tuple
-    target: tuple
-    opening: tuple
-    gap_field: tuple
-    length_field: tuple
-    pair: tuple
-    orientation: tuple
-    source_mass: tuple
-    source_energy: tuple
-    target_mass: tuple
-    target_energy: tuple
-    ledger_mass: tuple
-    ledger_energy: tuple
-    ledger_sign: tuple
-    pairs: tuple
-    balances: tuple
-    zeros: tuple
+MAX_PAIRS = 63                     # path_flows marks the pairs it needs as the bits of one integer
+
+
+def node_pairs(paths: tuple[FlowPath, ...]) -> list[tuple[int, int]]:
+    """The node pairs (a, b), a < b, with a path between them, in the order of their first path."""
+    pairs = []
+    for path in paths:
+        if not (0 <= path.source < len(NODES) and 0 <= path.target < len(NODES) and path.source != path.target):
+            raise ValueError(f"flow path {path.name!r}: nodes {path.source!r} -> {path.target!r} are out of range; "
+                             f"allowed: two different nodes of {NODES}")
+        pair = (min(path.source, path.target), max(path.source, path.target))
+        if pair not in pairs:
+            pairs.append(pair)
+    if len(pairs) > MAX_PAIRS:
+        raise ValueError(f"flow paths: {len(pairs)} node pairs is out of range; allowed: at most {MAX_PAIRS}")
+    return pairs
 
 
 def _ledger(path: FlowPath) -> tuple[int, int, float]:
@@ -153,133 +150,139 @@ def _ledger(path: FlowPath) -> tuple[int, int, float]:
     return flow.mass, flow.energy, flow.direction * into_chambers
 
 
-def network_of(paths: tuple[FlowPath, ...], input_fields: tuple[str, ...]) -> Network:
-    """The kernels' Network of a path table; `input_fields` are the ChamberInputs field names (INPUT_GAP sizes)."""
-    pairs = []
-    for path in paths:
-        if not (0 <= path.source < len(NODES) and 0 <= path.target < len(NODES) and path.source != path.target):
-            raise ValueError(f"flow path {path.name!r}: nodes {path.source!r} -> {path.target!r} are out of range; "
-                             f"allowed: two different nodes of {NODES}")
-        pair = (min(path.source, path.target), max(path.source, path.target))
-        if pair not in pairs:
-            pairs.append(pair)
+def network_tables(paths: tuple[FlowPath, ...], input_fields: tuple[str, ...]) -> dict[str, list]:
+    """The integer tables the kernels read of a path table, as lists by name (thermo.chamber_model.chamber_constants
+    stores them in the constants record as `path_<name>` per path and `pair_first`, `pair_second` per node pair).
+    Per path: its nodes, opening, the ChamberInputs indices of an INPUT_GAP's height and length (`input_fields`:
+    the ChamberInputs field names), its node pair and orientation in it (+1: source -> target is the pair's
+    first -> second), the state-block offsets of its source's and target's balances and of its boundary flow (-1:
+    none) with the sign it is booked with."""
+    pairs = node_pairs(paths)
     gaps = [path.opening == INPUT_GAP for path in paths]
     ledgers = [_ledger(path) for path in paths]
     none = (-1, -1)
-    balances = sorted({slot for balance in CHAMBER_BALANCES.values() for slot in balance}
-                      | {slot for flow in BOUNDARY_FLOWS for slot in (flow.mass, flow.energy)})
-    return Network(
-        source=tuple(p.source for p in paths), target=tuple(p.target for p in paths),
-        opening=tuple(p.opening for p in paths),
-        gap_field=tuple(input_fields.index(p.size) if gap else 0 for p, gap in zip(paths, gaps)),
-        length_field=tuple(input_fields.index(p.flow_length) if gap else 0 for p, gap in zip(paths, gaps)),
-        pair=tuple(pairs.index((min(p.source, p.target), max(p.source, p.target))) for p in paths),
-        orientation=tuple(1.0 if p.source < p.target else -1.0 for p in paths),
-        source_mass=tuple(CHAMBER_BALANCES.get(p.source, none)[0] for p in paths),
-        source_energy=tuple(CHAMBER_BALANCES.get(p.source, none)[1] for p in paths),
-        target_mass=tuple(CHAMBER_BALANCES.get(p.target, none)[0] for p in paths),
-        target_energy=tuple(CHAMBER_BALANCES.get(p.target, none)[1] for p in paths),
-        ledger_mass=tuple(ledger[0] for ledger in ledgers), ledger_energy=tuple(ledger[1] for ledger in ledgers),
-        ledger_sign=tuple(ledger[2] for ledger in ledgers), pairs=tuple(pairs), balances=tuple(balances),
-        zeros=(0.0,) * len(paths))
+    return dict(
+        source=[p.source for p in paths], target=[p.target for p in paths], opening=[p.opening for p in paths],
+        input_size=[input_fields.index(p.size) if gap else 0 for p, gap in zip(paths, gaps)],
+        input_length=[input_fields.index(p.flow_length) if gap else 0 for p, gap in zip(paths, gaps)],
+        pair=[pairs.index((min(p.source, p.target), max(p.source, p.target))) for p in paths],
+        orientation=[1.0 if p.source < p.target else -1.0 for p in paths],
+        source_mass=[CHAMBER_BALANCES.get(p.source, none)[0] for p in paths],
+        source_energy=[CHAMBER_BALANCES.get(p.source, none)[1] for p in paths],
+        target_mass=[CHAMBER_BALANCES.get(p.target, none)[0] for p in paths],
+        target_energy=[CHAMBER_BALANCES.get(p.target, none)[1] for p in paths],
+        ledger_mass=[ledger[0] for ledger in ledgers], ledger_energy=[ledger[1] for ledger in ledgers],
+        ledger_sign=[ledger[2] for ledger in ledgers])
+
+
+def flow_work(paths: tuple[FlowPath, ...] = FLOW_PATHS) -> np.ndarray:
+    """The flow network's working values as a one-row structured array, written by every evaluation before they are
+    read (the caller allocates it once, as the loop's workspace rows): per node its state (`temperature` [K],
+    `density` [kg/m^3], `pressure` [Pa], `enthalpy` [J/kg]), per path the size and flow length of its section
+    (`section`, `section_length`) and its mass flow [kg/s] in its direction (`mass_flow[PATH.<name>]`), per node pair
+    the nozzle flux and its signed factor (`flux`, `flux_factor`)."""
+    pairs = len(node_pairs(paths))
+    dtype = np.dtype([(name, np.float64, (len(NODES),)) for name in FlowNode._fields]
+                     + [(name, np.float64, (len(paths),)) for name in ("section", "section_length", "mass_flow")]
+                     + [(name, np.float64, (pairs,)) for name in ("flux", "flux_factor")])
+    return kernel_record(np.zeros(1, dtype=dtype))
 
 
 def path_index(paths: tuple[FlowPath, ...] = FLOW_PATHS):
-    """The paths' indices by name (`PATH.tip_leak`): ChamberFlows.mass_flow[PATH.<name>] is that path's flow."""
+    """The paths' indices by name (`PATH.tip_leak`): `mass_flow[PATH.<name>]` of the working values is that path's
+    flow."""
     return NamedTuple("PathIndex", [(p.name, int) for p in paths])(*range(len(paths)))
 
 
 PATH = path_index()
 
 
-class ChamberFlows(NamedTuple):
-    """Mass flow [kg/s] of every path in its direction (`mass_flow[PATH.<name>]`), and how many node pairs the
-    nozzle table refused (their paths' flow is NaN) or continued through a metastable throat (status 8)."""
-    mass_flow: tuple
+class FlowStatus(NamedTuple):
+    """How many node pairs the nozzle table refused (their paths' flow is NaN) or continued through a metastable
+    throat (status 8) in one evaluation of the network."""
     refused: int
     metastable: int
 
 
-def replaced(values: tuple, index: int, value) -> tuple:
-    """`values` with item `index` replaced by `value` (compiled: on the stack, numba's tuple_setitem)."""
-    return values[:index] + (value,) + values[index + 1:]
-
-
-@overload(replaced)
-def _replaced_compiled(values, index, value):
-    return lambda values, index, value: tuple_setitem(values, index, value)
+@kernel
+def set_node(work, node, state):
+    """Write the FlowNode `state` of node `node` into the working values (`flow_work`)."""
+    work.temperature[node] = state.temperature
+    work.density[node] = state.density
+    work.pressure[node] = state.pressure
+    work.enthalpy[node] = state.enthalpy
 
 
 @kernel
-def path_section(p, inputs, c, nodes, network):
+def path_section(p, inputs, c, work):
     """(size, friction-equivalent flow length) of path p's section: the area [m^2] of a port (its width is 1) or
     the height [m] of a gap (module docstring)."""
-    opening = network.opening[p]
+    opening = c.path_opening[p]
     if opening == INPUT_GAP:
-        return inputs[network.gap_field[p]], inputs[network.length_field[p]]
+        return inputs[c.path_input_size[p]], inputs[c.path_input_length[p]]
     size = c.path_size[p]
     if opening == SUCTION_PORT_AHEAD:
         size = size * port_coverage(inputs.vane_phase, 0.0, c.suction_close_angle)
     elif opening == SUCTION_PORT_BEHIND:
         size = size - size * port_coverage(inputs.vane_phase, 0.0, c.suction_close_angle)
-    elif opening == CHECK_VALVE and not nodes[network.source[p]].pressure > nodes[network.target[p]].pressure:
+    elif opening == CHECK_VALVE and not work.pressure[c.path_source[p]] > work.pressure[c.path_target[p]]:
         size = 0.0
     return size, c.path_flow_length[p]
 
 
 @kernel
-def path_flows(inputs, c, nodes, nozzles, network):
-    """The ChamberFlows of every path of `network` between the FlowNodes `nodes` (indexed by node code) at the
-    chambers' ChamberInputs (docs/model.md §7.4); the nozzle flux of a node pair is looked up only if a path between
-    them is open, once for all of them."""
-    sizes = network.zeros
-    lengths = network.zeros
-    for p in range(len(network.zeros)):
-        size, length = path_section(p, inputs, c, nodes, network)
-        sizes = replaced(sizes, p, size)
-        lengths = replaced(lengths, p, length)
-    flows = network.zeros
+def path_flows(inputs, c, work, nozzles):
+    """Every path's mass flow into `work.mass_flow` (docs/model.md §7.4), between the node states of `work` at the
+    chambers' ChamberInputs; returns the FlowStatus. Three passes: each path's section, marking the node pairs
+    with an open path; the nozzle flux of each marked pair, looked up once for all its paths; each path's flow."""
+    needed = 0
+    for p in range(len(work.mass_flow)):
+        size, length = path_section(p, inputs, c, work)
+        work.section[p] = size
+        work.section_length[p] = length
+        if leakage_path_open(c.path_law[p], size, c.path_width[p]):
+            needed |= 1 << c.path_pair[p]
     refused = 0
     metastable = 0
-    for k in range(len(network.pairs)):
-        needed = False
-        for p in range(len(network.zeros)):
-            if network.pair[p] == k and leakage_path_open(c.path_law[p], sizes[p], c.path_width[p]):
-                needed = True
-        if not needed:
-            continue
-        a = nodes[network.pairs[k][0]]
-        b = nodes[network.pairs[k][1]]
-        flux, factor, status = nozzle_flux_between(a.temperature, a.density, a.pressure, b.temperature, b.density,
-                                                   b.pressure, nozzles)
+    for k in range(len(work.flux)):
+        flux, factor, status = 0.0, 0.0, STATUS_OK
+        if needed >> k & 1:
+            a = c.pair_first[k]
+            b = c.pair_second[k]
+            flux, factor, status = nozzle_flux_between(work.temperature[a], work.density[a], work.pressure[a],
+                                                       work.temperature[b], work.density[b], work.pressure[b],
+                                                       nozzles)
         metastable += status == STATUS_THROAT_NEAR_SATURATION
         refused += status != STATUS_OK and status != STATUS_THROAT_NEAR_SATURATION
-        upstream = a if factor >= 0.0 else b
-        for p in range(len(network.zeros)):
-            if network.pair[p] == k:
-                flows = replaced(flows, p, network.orientation[p] * real_gas_leakage_flow(
-                    c.path_law[p], c.path_coefficient[p], sizes[p], lengths[p], c.path_width[p], flux, factor,
-                    upstream.temperature, upstream.density, nozzles))
-    return ChamberFlows(flows, refused, metastable)
+        work.flux[k] = flux
+        work.flux_factor[k] = factor
+    for p in range(len(work.mass_flow)):
+        k = c.path_pair[p]
+        factor = work.flux_factor[k]
+        upstream = c.pair_first[k] if factor >= 0.0 else c.pair_second[k]
+        work.mass_flow[p] = c.path_orientation[p] * real_gas_leakage_flow(
+            c.path_law[p], c.path_coefficient[p], work.section[p], work.section_length[p], c.path_width[p],
+            work.flux[k], factor, work.temperature[upstream], work.density[upstream], nozzles)
+    return FlowStatus(refused, metastable)
 
 
 @kernel
-def sum_flows(flows, nodes, rates, block, network):
+def sum_flows(c, work, rates, block):
     """Sum mass and energy per node (docs/model.md §7.3-§7.4) into the state block of `rates` (from index `block`):
     each chamber's net mass inflow dm/dt into its mass slot and its enthalpy inflow sum m_in h_up - sum m_out h into
     its temperature slot (chamber_rates turns that into dT/dt), and each boundary flow of BOUNDARY_FLOWS. A path's
-    energy flow is its mass flow times the upwind node's enthalpy."""
-    for offset in network.balances:
+    energy flow is its mass flow (`work.mass_flow`) times the upwind node's enthalpy."""
+    for offset in BALANCE_SLOTS:
         rates[block + offset] = 0.0
-    for p in range(len(network.zeros)):
-        flow = flows.mass_flow[p]
-        energy = flow * (nodes[network.source[p]].enthalpy if flow > 0.0 else nodes[network.target[p]].enthalpy)
-        if network.source_mass[p] >= 0:
-            rates[block + network.source_mass[p]] -= flow
-            rates[block + network.source_energy[p]] -= energy
-        if network.target_mass[p] >= 0:
-            rates[block + network.target_mass[p]] += flow
-            rates[block + network.target_energy[p]] += energy
-        if network.ledger_mass[p] >= 0:
-            rates[block + network.ledger_mass[p]] += network.ledger_sign[p] * flow
-            rates[block + network.ledger_energy[p]] += network.ledger_sign[p] * energy
+    for p in range(len(work.mass_flow)):
+        flow = work.mass_flow[p]
+        energy = flow * (work.enthalpy[c.path_source[p]] if flow > 0.0 else work.enthalpy[c.path_target[p]])
+        if c.path_source_mass[p] >= 0:
+            rates[block + c.path_source_mass[p]] -= flow
+            rates[block + c.path_source_energy[p]] -= energy
+        if c.path_target_mass[p] >= 0:
+            rates[block + c.path_target_mass[p]] += flow
+            rates[block + c.path_target_energy[p]] += energy
+        if c.path_ledger_mass[p] >= 0:
+            rates[block + c.path_ledger_mass[p]] += c.path_ledger_sign[p] * flow
+            rates[block + c.path_ledger_energy[p]] += c.path_ledger_sign[p] * energy
