@@ -17,9 +17,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..thermo.chamber_model import chamber_constants
+from ..thermo.chamber_model import chamber_constants, chamber_flow_work
 from ..thermo.gas_reference import GasReference
-from ..thermo.flow_paths import FlowNode, flow_work
+from ..thermo.flow_paths import FlowNode
 from ..thermo.leakage import LEAKAGE_LAWS
 from ..thermo.operating_point import operating_point_for
 from ..thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
@@ -38,7 +38,7 @@ class GasCoupling(NamedTuple):
     properties: tuple                     # thermo.property_table.table_arrays of the fluid (real gas) or a placeholder
     nozzles: tuple                        # thermo.real_gas_nozzle.nozzle_table_arrays (real gas) or a placeholder
     chambers: np.ndarray                  # thermo.chamber_model constants (one-row structured array)
-    flow_work: np.ndarray                 # the flow network's working values (thermo.flow_paths.flow_work)
+    flow_work: np.ndarray                 # the flow network's working values (thermo.chamber_model.chamber_flow_work)
     suction_density: float                # kg/m^3
     reference: object                     # thermo.gas_reference.GasReference (real gas) or None
 
@@ -131,8 +131,8 @@ def _real_gas_coupling(p: CompressorParameters) -> GasCoupling:
                             "back chamber (p_d on the suction isentrope)")
     reference = GasReference(point, p.lobes * p.axial_length * lobe_area(p))
     return GasCoupling(np.zeros(2), table_arrays(table), nozzle_table_arrays(nozzles),
-                       _constants(p, suction, discharge, valley_seal_length(p)), flow_work(), point.suction_density,
-                       reference)
+                       _constants(p, suction, discharge, valley_seal_length(p)), chamber_flow_work(),
+                       point.suction_density, reference)
 
 
 def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCoupling:
@@ -144,5 +144,5 @@ def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCou
     enthalpy = p.heat_capacity_ratio * p.gas_constant / (p.heat_capacity_ratio - 1.0) * p.suction_temperature
     suction = FlowNode(p.suction_temperature, density, p.suction_pressure, enthalpy)
     return GasCoupling(leading_pressure_table(p, operating_speed), table_arrays(_placeholder_properties()),
-                       nozzle_table_arrays(_placeholder_nozzles()), _constants(p, suction, suction, 0.0), flow_work(),
-                       density, None)
+                       nozzle_table_arrays(_placeholder_nozzles()), _constants(p, suction, suction, 0.0),
+                       chamber_flow_work(), density, None)

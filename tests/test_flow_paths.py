@@ -23,9 +23,10 @@ from rotary_vane.mechanics.layout import GAS_BLOCK, GAS_STATE_INVALID
 from rotary_vane.mechanics.performance import revolutions
 from rotary_vane.thermo.chamber_model import (CONSTANT_FIELDS, LEADING_MASS, LEADING_TEMPERATURE, PATH_FIELDS,
                                               TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs,
-                                              boundary_nodes, chamber_constants, chamber_rates, path_value_names)
+                                              boundary_nodes, chamber_constants, chamber_flow_work, chamber_rates,
+                                              path_value_names)
 from rotary_vane.thermo.flow_paths import (BACK, FIXED_GAP, FLOW_PATHS, LEADING, PATH, SUCTION, TRAILING, FlowNode,
-                                           FlowPath, flow_work, path_flows, set_node)
+                                           FlowPath, path_flows, set_node)
 from rotary_vane.thermo.property_table import table_from_arrays
 from rotary_vane.thermo.leakage import (LEAKAGE_LAWS, friction_length, harmonic_valley_seal_radius,
                                         signed_real_gas_leakage_flow, valley_seal_radius)
@@ -274,7 +275,7 @@ def chamber_flows(inputs, c, leading, trailing, nozzles):
     """(flow of every path by name, refused, metastable) of the flow network between the two chamber nodes and the
     run's boundary nodes."""
     suction, back = boundary_nodes(c)
-    work = flow_work()[0]
+    work = chamber_flow_work()[0]
     for node, state in ((SUCTION, suction), (LEADING, leading), (TRAILING, trailing), (BACK, back)):
         set_node(work, node, state)
     status = path_flows(inputs, c, work, nozzles)
@@ -409,16 +410,16 @@ def test_adding_a_flow_path_is_one_row(every_path):
     bypass = FlowPath("bypass", LEADING, TRAILING, FIXED_GAP, "bypass_gap", "bypass_length", "axial_length",
                       "tip_law", "tip_coefficient", "")
     paths = (*FLOW_PATHS, bypass)
-    shipped, flows = np.zeros(y.size), flow_work()[0]
+    shipped, flows = np.zeros(y.size), chamber_flow_work()[0]
     chamber_rates(y, GAS_BLOCK, inputs, c, table, nozzles, shipped, flows)
-    closed, closed_flows = np.zeros(y.size), flow_work(paths)[0]
+    closed, closed_flows = np.zeros(y.size), chamber_flow_work(paths)[0]
     chamber_rates(y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=0.0, bypass_length=0.0), table,
                   nozzles, closed, closed_flows)
     assert np.array_equal(closed, shipped)
     assert len(closed_flows["mass_flow"]) == len(flows["mass_flow"]) + 1 and closed_flows["mass_flow"][-1] == 0.0
     assert np.array_equal(closed_flows["mass_flow"][:-1], flows["mass_flow"])
     gap, length = 15e-6, 2e-3
-    opened, open_flows = np.zeros(y.size), flow_work(paths)[0]
+    opened, open_flows = np.zeros(y.size), chamber_flow_work(paths)[0]
     chamber_rates(y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=gap, bypass_length=length), table,
                   nozzles, opened, open_flows)
     (t_l, rho_l, p_l), (t_t, rho_t, p_t) = chamber_nodes(sim, y, outputs)

@@ -29,8 +29,8 @@ from .chamber_state import (CHAMBER_STATES, ENERGY_BACK_CHAMBER, ENERGY_DISCHARG
                             GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_BACK_CHAMBER, MASS_DISCHARGE,
                             MASS_SUCTION, TRAILING_MASS, TRAILING_TEMPERATURE, WORK_CHAMBERS)
 from .control_volume import chamber_derivatives, internal_energy_temperature
-from .flow_paths import (BACK, FLOW_PATHS, INPUT_GAP, LEADING, SUCTION, TRAILING, FlowNode, network_tables,
-                         node_pairs, path_flows, set_node, sum_flows)
+from .flow_paths import (BACK, FLOW_PATHS, INPUT_GAP, LEADING, SUCTION, TRAILING, FlowNode, flow_work,
+                         network_tables, node_pairs, path_flows, set_node, sum_flows)
 from .kernel import kernel, kernel_record
 from .leakage import LAW_NOZZLE
 from .property_table import table_properties, table_state
@@ -105,6 +105,12 @@ class ChamberInputs(NamedTuple):
     slot_flow_length_leading: float
     slot_gap_trailing: float
     slot_flow_length_trailing: float
+
+
+def chamber_flow_work(paths=FLOW_PATHS) -> np.ndarray:
+    """The flow network's working values (thermo.flow_paths.flow_work) of a path table, with the ChamberInputs as
+    the network's inputs; allocated once per run, passed to chamber_rates."""
+    return flow_work(paths, ChamberInputs._fields)
 
 
 @kernel

@@ -175,14 +175,17 @@ def network_tables(paths: tuple[FlowPath, ...], input_fields: tuple[str, ...]) -
         ledger_sign=[ledger[2] for ledger in ledgers])
 
 
-def flow_work(paths: tuple[FlowPath, ...] = FLOW_PATHS) -> np.ndarray:
+def flow_work(paths: tuple[FlowPath, ...], input_fields: tuple[str, ...]) -> np.ndarray:
     """The flow network's working values as a one-row structured array, written by every evaluation before they are
-    read (the caller allocates it once, as the loop's workspace rows): per node its state (`temperature` [K],
-    `density` [kg/m^3], `pressure` [Pa], `enthalpy` [J/kg]), per path the size and flow length of its section
-    (`section`, `section_length`) and its mass flow [kg/s] in its direction (`mass_flow[PATH.<name>]`), per node pair
-    the nozzle flux and its signed factor (`flux`, `flux_factor`)."""
+    read (the caller allocates it once, as the loop's workspace rows): the chambers' inputs as an array (`inputs`,
+    `input_fields` the ChamberInputs field names: an INPUT_GAP reads its height and length by index, and a named
+    tuple read by a run-time index costs a branch per read), per node its state (`temperature` [K], `density`
+    [kg/m^3], `pressure` [Pa], `enthalpy` [J/kg]), per path the size and flow length of its section (`section`,
+    `section_length`) and its mass flow [kg/s] in its direction (`mass_flow[PATH.<name>]`), per node pair the nozzle
+    flux and its signed factor (`flux`, `flux_factor`)."""
     pairs = len(node_pairs(paths))
-    dtype = np.dtype([(name, np.float64, (len(NODES),)) for name in FlowNode._fields]
+    dtype = np.dtype([("inputs", np.float64, (len(input_fields),))]
+                     + [(name, np.float64, (len(NODES),)) for name in FlowNode._fields]
                      + [(name, np.float64, (len(paths),)) for name in ("section", "section_length", "mass_flow")]
                      + [(name, np.float64, (pairs,)) for name in ("flux", "flux_factor")])
     return kernel_record(np.zeros(1, dtype=dtype))
@@ -219,7 +222,7 @@ def path_section(p, inputs, c, work):
     the height [m] of a gap (module docstring)."""
     opening = c.path_opening[p]
     if opening == INPUT_GAP:
-        return inputs[c.path_input_size[p]], inputs[c.path_input_length[p]]
+        return work.inputs[c.path_input_size[p]], work.inputs[c.path_input_length[p]]
     size = c.path_size[p]
     if opening == SUCTION_PORT_AHEAD:
         size = size * port_coverage(inputs.vane_phase, 0.0, c.suction_close_angle)
@@ -233,8 +236,11 @@ def path_section(p, inputs, c, work):
 @kernel
 def path_flows(inputs, c, work, nozzles):
     """Every path's mass flow into `work.mass_flow` (docs/model.md §7.4), between the node states of `work` at the
-    chambers' ChamberInputs; returns the FlowStatus. Three passes: each path's section, marking the node pairs
-    with an open path; the nozzle flux of each marked pair, looked up once for all its paths; each path's flow."""
+    chambers' ChamberInputs `inputs`; returns the FlowStatus. Three passes: each path's section, marking the node
+    pairs with an open path; the nozzle flux of each marked pair, looked up once for all its paths; each path's
+    flow."""
+    for i in range(len(inputs)):
+        work.inputs[i] = inputs[i]
     needed = 0
     for p in range(len(work.mass_flow)):
         size, length = path_section(p, inputs, c, work)
