@@ -5,7 +5,7 @@ need and nothing of the physics:
 
 * `ensure_fmus`: build the FMUs with `python -m rotary_vane.fmu_src.build --out DIR` when they are missing or stale. Stale
   means built from other sources: every FMU carries the project's code under a private package name
-  `rotary_vane_<version>_<source hash>` (fmu_src/build.py, `private_package_name`), read here from the names in
+  `rotary_vane_<version>_<source hash>_<model>` (fmu_src/build.py, `private_package_name`), read here from the names in
   the .fmu archive and compared with the name the current sources give.
 * `FmuLog`: the fmpy logger callback (debug logging is always on); prints every message that is not OK as it
   arrives and keeps the messages for error reports.
@@ -47,7 +47,7 @@ class InputError(ValueError):
 
 # FMUs: build if missing or stale ------------------------------------------------------------------------------
 def bundled_package(fmu: Path) -> str | None:
-    """The private package name the FMU bundles (resources/rotary_vane_<version>_<hash>/), or None."""
+    """The private package name the FMU bundles (resources/rotary_vane_<version>_<hash>_<model>/), or None."""
     with zipfile.ZipFile(fmu) as archive:
         names = {name.split("/")[1] for name in archive.namelist()
                  if name.startswith("resources/rotary_vane_") and name.count("/") >= 2}
@@ -57,9 +57,9 @@ def bundled_package(fmu: Path) -> str | None:
 def stale_reason(fmu_dir: Path) -> str | None:
     """Why the FMUs in `fmu_dir` must be (re)built, or None if they were built from the current sources."""
     from rotary_vane.fmu_src.build import private_package_name
-    current = private_package_name()
     for name in (COMPRESSOR, MOTOR):
         path = fmu_dir / f"{name}.fmu"
+        current = private_package_name(name)
         if not path.is_file():
             return f"{path} is missing"
         try:
@@ -228,8 +228,8 @@ def add_common_options(parser: argparse.ArgumentParser, script: str) -> None:
     parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR,
                         help="folder of RotaryVaneCompressor.fmu and DriveMotor.fmu; they are built there "
                              "(python -m rotary_vane.fmu_src.build --out DIR) if missing or stale, i.e. if the private package "
-                             "name rotary_vane_<version>_<source hash> bundled in an FMU differs from the one of "
-                             "the current sources")
+                             "name rotary_vane_<version>_<source hash>_<model> bundled in an FMU differs from the "
+                             "one of the current sources")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT_ROOT / script,
                         help="folder for the CSV, PNG and summary files")
     parser.add_argument("--verbose", action="store_true",

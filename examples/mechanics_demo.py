@@ -36,8 +36,9 @@ from rotary_vane.mechanics.displacement import DISPLACEMENT_LAWS, displacement  
 from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
 from rotary_vane.mechanics.parameters import INTEGRATORS  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary, revolutions  # noqa: E402
+from rotary_vane.mechanics.regions import REGION_COUNT  # noqa: E402
 
-REGIONS = range(1, 7)                      # contact regions c1..c6 (docs/model.md §1.3)
+REGIONS = range(1, REGION_COUNT + 1)       # contact regions c1..c8 (docs/model.md §1.3)
 
 
 # command line --------------------------------------------------------------------------------------------
@@ -266,8 +267,8 @@ def plot_kinematics(runs: list[Run], rpm: float, path: Path) -> None:
 
 
 def plot_contact_forces(runs: list[Run], rpm: float, path: Path) -> None:
-    fig, axes = plt.subplots(3, 2, figsize=(12, 10), sharex=True)
-    for k, ax in zip(REGIONS, axes.T.ravel()):          # left column c1, c3, c5 (leading), right c2, c4, c6
+    fig, axes = plt.subplots(REGION_COUNT // 2, 2, figsize=(12, 3.3 * REGION_COUNT // 2), sharex=True)
+    for k, ax in zip(REGIONS, axes.T.ravel()):          # left column c1, c3, ... (leading), right c2, c4, ...
         for run in runs:
             ax.plot(angle_in_revolution(run), run.window[f"normal_force_{k}"], lw=1.0,
                     label=f"c = {run.clearance_mm:g} mm")
@@ -320,8 +321,8 @@ def plot_contact_modes(runs: list[Run], rpm: float, path: Path) -> None:
         for row, k in enumerate(REGIONS):
             bars = contact_intervals(angle, run.window[f"penetration_{k}"] > 0.0)
             ax.broken_barh(bars, (row - 0.4, 0.8), color=f"C{row}")
-        ax.set_yticks(range(6), REGION_LABELS)
-        ax.set_ylim(5.6, -0.6)
+        ax.set_yticks(range(REGION_COUNT), REGION_LABELS)
+        ax.set_ylim(REGION_COUNT - 0.4, -0.6)
         ax.set_ylabel("region")
         ax.set_title(f"c = {run.clearance_mm:g} mm: {len(run.summary.distinct_modes)} distinct modes "
                      f"(dwell ≥ {run.params.mode_dwell_time * 1e6:g} µs)", fontsize=10)

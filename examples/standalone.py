@@ -31,9 +31,10 @@ import numpy as np                         # noqa: E402
 
 from rotary_vane.examples import fmu_harness as harness              # noqa: E402
 from rotary_vane.examples.cli_types import number_parser  # noqa: E402
+from rotary_vane.mechanics.regions import REGION_COUNT  # noqa: E402
 
 GAS_OUTPUTS = ("discharge_mass_flow", "discharge_temperature")     # from the real-gas model
-REGIONS = range(1, 7)
+REGIONS = range(1, REGION_COUNT + 1)            # c1..c8 (docs/model.md §1.3): leading, trailing in turn
 
 
 def parse_arguments(argv=None) -> argparse.Namespace:
@@ -211,7 +212,7 @@ def plot_kinematics(result, path, title):
 
 def plot_contact_forces(result, path, title):
     degrees, rows = angle_axis(result, last_revolution(result))
-    fig, axes = plt.subplots(3, 2, figsize=(10, 7.5), sharex=True)
+    fig, axes = plt.subplots(REGION_COUNT // 2, 2, figsize=(10, 2.5 * REGION_COUNT // 2), sharex=True)
     for k, ax in zip(REGIONS, axes.ravel(order="F")):
         ax.plot(degrees, result[f"contact_force_{k}"][rows], ".-", lw=0.8, ms=3)
         ax.set_ylabel(f"c{k} normal force [N]")

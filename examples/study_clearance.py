@@ -47,6 +47,7 @@ import numpy as np                         # noqa: E402
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
 from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary  # noqa: E402
+from rotary_vane.mechanics.regions import REGION_COUNT  # noqa: E402
 from rotary_vane.examples.mechanics_demo import Run, plot_contact_modes, run_one  # noqa: E402
 from rotary_vane.examples.study_report import DEFAULT_OUT, markdown_table, write_manifest, write_report  # noqa: E402
 
@@ -220,8 +221,8 @@ def kinematics_table(runs: dict, rpm: float, clearances) -> str:
 
 
 def summed_normal_force(run: Run) -> np.ndarray:
-    """sum over c1..c6 of F_n at every accepted step of the window [N]."""
-    return sum(run.window[f"normal_force_{k}"] for k in range(1, 7))
+    """sum over every region of F_n at every accepted step of the window [N]."""
+    return sum(run.window[f"normal_force_{k}"] for k in range(1, REGION_COUNT + 1))
 
 
 def contact_force_table(runs: dict, rpm: float, clearances) -> str:

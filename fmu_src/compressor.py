@@ -15,13 +15,16 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean
 
 from ..mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
+from ..mechanics.parameters import is_numeric
+from ..mechanics.simulation import WORK_PER_MS
 from ..mechanics.layout import WORK_IN
 from ..mechanics.modes import MODE_COUNT
 from ..mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
-from ..thermo.compile_cache import cache_root, shipped_kernels_refusal
+from ..thermo.compile_cache import cache_root, shipped_kernel_misses, shipped_kernels_refusal
 
 from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
+from . import state_schema as schema
 from .slave import GuardedSlave, StepFailed
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
@@ -33,6 +36,9 @@ RUN_PARAMETERS = {
     "pressure_table_speed": ("rpm", 1500.0, 1.0, 1e5,
                              "operating speed at which the Level 0.5 pressure table is built"),
     "initial_rotor_angle": ("rad", 0.0, -1e3, 1e3, "rotor angle theta at the start time"),
+    "work_bound": ("1", float(WORK_PER_MS), 1.0, 1e12,
+                   "most integrator step attempts per ms of a communication step (plus 1000): a step that needs more "
+                   "is discarded (fmi2Discard) instead of running on; the default is ten times what valid runs need"),
 }
 # outputs of the communication step itself
 STEP_RESULTS = {
@@ -42,6 +48,22 @@ STEP_RESULTS = {
     "shaft_angle": ("rad", "cumulative rotor angle turned since the start"),
 }
 PARAMETER_NAMES = (*(name for name, _, _ in declarations()), *RUN_PARAMETERS, "interpolate_speed", "fidelity")
+# parameter values as an importer may have set them (ranges are checked at initialization and for a built model)
+PARAMETER_TYPES = schema.Record({
+    **{name: (schema.Text(length=10 ** 6) if not is_numeric(meta) else
+              schema.Integer(-2 ** 63, 2 ** 63) if meta["integer"] else schema.Real(finite=False))
+       for name, _, meta in declarations()},
+    **{name: schema.Real(finite=False) for name in RUN_PARAMETERS}, "interpolate_speed": schema.Boolean(),
+    "fidelity": schema.Text()})
+MODEL_SCHEMA = schema.Record({
+    "parameters": PARAMETER_TYPES,
+    "shaft_speed": schema.Real(finite=False),     # an input may hold any value; a bad one discards the next step
+    "step_results": schema.Record({name: schema.Real() for name in STEP_RESULTS}),
+    "map_values": schema.Mapping(tuple(d.name for d in OUTPUTS), schema.Real(finite=False)),
+    "warned_revolution": schema.Nullable(schema.Real()),
+    "simulation": schema.Nullable(compressor_state.SIMULATION),
+    "map_run": schema.Nullable(compressor_state.MAP_RUN),
+})
 
 
 class CompressorSlave(GuardedSlave):
@@ -146,6 +168,17 @@ class CompressorSlave(GuardedSlave):
             self.report(f"the kernels compiled into this FMU are not used: {refusal}; numba loads them from, or "
                         f"compiles them into, {cache_root()} (about 30 s, once per machine)", Fmi2Status.ok)
         self._build(params, self.shaft_speed)
+        self._report_kernel_misses()
+
+    def _report_kernel_misses(self):
+        """A message (fmi2OK, as the refusal of the shipped kernels: a matter of time, not of results; on stderr and,
+        with debug logging, in the logger), once per kernel and process, for a kernel that numba did not find among
+        the usable shipped ones (it then loads it from, or compiles it into, the user's cache: seconds to 30 s). The
+        kernels that only a failed step's diagnosis calls are not shipped."""
+        misses = shipped_kernel_misses()
+        if misses:
+            self.report(f"{'; '.join(misses)[:1500]}: numba loads them from, or compiles them into, {cache_root()} "
+                        f"(seconds to 30 s, once per machine)", Fmi2Status.ok)
 
     def _build(self, params, speed_rpm):
         """The model of `params` at its start (the speed is the input at the start time)."""
@@ -158,6 +191,7 @@ class CompressorSlave(GuardedSlave):
         self.simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed)
         self.simulation.warn_contact_law = False          # logged once per run by advance()
+        self.simulation.work_per_ms = self.work_bound
 
     def input_error(self):
         if not (0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
@@ -166,7 +200,7 @@ class CompressorSlave(GuardedSlave):
 
     def advance(self, end_time, step_size):
         if self.map_run is not None:
-            return self._advance_map(step_size)
+            return self._advance_map(end_time, step_size)
         simulation = self.simulation
         work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
         last_before = simulation.last_revolution
@@ -182,6 +216,7 @@ class CompressorSlave(GuardedSlave):
         results["shaft_angle"] = simulation.rotor_angle - self.initial_rotor_angle
         if simulation.last_revolution is not last_before:
             self._warn_undefined_figures()
+        self._report_kernel_misses()
         if simulation.contact_law_excess > 0.0 and not self.warned_law_excess:
             self.warned_law_excess = True
             self.report(simulation.law_excess_text(simulation.contact_law_excess), Fmi2Status.warning)
@@ -194,10 +229,11 @@ class CompressorSlave(GuardedSlave):
             self.warned_revolution = summary.end_time
             self.report(f"{', '.join(undefined)} = nan: {self.undefined_reason(undefined[0])}", Fmi2Status.warning)
 
-    def _advance_map(self, step_size):
-        """One step of the periodic_map fidelity (fmu_src.periodic_map_mode)."""
+    def _advance_map(self, end_time, step_size):
+        """One step of the periodic_map fidelity (fmu_src.periodic_map_mode), to the model time `end_time`."""
         run = self.map_run
         work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
+        run.time = end_time                    # the exact sum of the step sizes (the clock's), not a float sum
         self.map_values = run.outputs()
         results = self.step_results
         results["shaft_torque_mean"] = work / angle if angle > 0.0 else self.map_values["shaft_torque"]
@@ -205,6 +241,25 @@ class CompressorSlave(GuardedSlave):
         results["shaft_angle"] = run.angle - self.initial_rotor_angle
 
     # state --------------------------------------------------------------------------------------------------
+    @classmethod
+    def model_schema(cls):
+        return MODEL_SCHEMA
+
+    @classmethod
+    def model_relations(cls):
+        return (_check_built_model,)
+
+    @classmethod
+    def model_time(cls, model):
+        built = model["simulation"] or model["map_run"]
+        return None if built is None else built["time"]
+
+    def changed_parameters(self):
+        defaults = {**{name: default for name, default, _ in declarations()},
+                    **{name: spec[1] for name, spec in RUN_PARAMETERS.items()}, "interpolate_speed": True,
+                    "fidelity": "detailed"}
+        return {name: value for name, value in self._parameter_values().items() if value != defaults[name]}
+
     def _parameter_values(self):
         return {name: getattr(self, name) for name in PARAMETER_NAMES}
 
@@ -242,6 +297,30 @@ class CompressorSlave(GuardedSlave):
             self.map_run.set_state({name: float(value) for name, value in saved.items()})
             return
         compressor_state.restore_simulation(self.simulation, state["simulation"])
+
+
+def _check_built_model(tree) -> None:
+    """A saved model that is built: its parameters are valid (each in its range, their relations), its kind is
+    its fidelity's, its integrator controls are sane (compressor_state.check_controls)."""
+    model = tree["model"]
+    parameters = model["parameters"]
+    if model["simulation"] is None and model["map_run"] is None:
+        return
+    if model["simulation"] is not None and model["map_run"] is not None:
+        raise ValueError("the state is inconsistent: it holds both a detailed and a periodic-map run")
+    CompressorParameters(**{name: parameters[name] for name, _, _ in declarations()})
+    for name, (_, _, low, high, _) in RUN_PARAMETERS.items():
+        if not (math.isfinite(parameters[name]) and low <= parameters[name] <= high):
+            raise ValueError(f"parameter '{name}' = {parameters[name]!r} is out of range: allowed [{low:g}, {high:g}]")
+    check_fidelity(parameters["fidelity"])
+    if (model["map_run"] is not None) != (parameters["fidelity"] == "periodic_map") or \
+            (model["map_run"] is None and model["map_values"]):
+        kind = "periodic-map" if model["map_run"] else "detailed"
+        raise ValueError(f"the state is inconsistent: a {kind} run with fidelity {parameters['fidelity']!r}"
+                         f"{' and periodic-map values' if model['map_values'] else ''}")
+    if model["simulation"] is not None:
+        compressor_state.check_controls(model["simulation"], parameters)
+        compressor_state.check_rows(model["simulation"], parameters["pressure_model"])
 
 
 def _column_getter(owner, name, column):

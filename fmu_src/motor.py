@@ -14,6 +14,7 @@ from ..mechanics.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
 from ..mechanics.parameters import short_repr
 from ..mechanics.speed import RPM
 
+from . import state_schema as schema
 from .slave import GuardedSlave, StepFailed
 from .variables import RealVariable, declared_parameter, output
 
@@ -66,6 +67,43 @@ OUTPUTS = {  # name -> (unit, description)
 }
 
 
+# a saved motor (MotorSlave.snapshot); parameter values as an importer may have set them (ranges: _check_built)
+MODEL_SCHEMA = schema.Record({
+    "parameters": schema.Record({name: schema.Text(length=10 ** 6) if "choices" in meta else
+                          schema.Integer(-2 ** 63, 2 ** 63) if meta["integer"] else schema.Real(finite=False)
+                          for name, meta in PARAMETERS.items()}),
+    "built": schema.Boolean(),
+    "time": schema.Real(0.0, math.inf),
+    "state": schema.Sequence(schema.Real(), 5),
+    "outputs": schema.Record({name: schema.Real() for name in OUTPUTS}),
+    "inputs": schema.Record({name: schema.Real(finite=False) for name in INPUTS}),  # a bad input discards the next step
+})
+
+
+def _check_built(tree) -> None:
+    """A saved motor that is built has valid parameters; one that is not has not run."""
+    model = tree["model"]
+    if not model["built"]:
+        if model["time"] != 0.0:
+            raise ValueError(f"the state is inconsistent: no motor is built, yet its time is {model['time']!r} s")
+        return
+    check_parameters(model["parameters"])
+
+
+def check_parameters(values: dict) -> None:
+    """Each parameter in its range, and their relations; ValueError naming the parameter otherwise."""
+    for name, meta in PARAMETERS.items():
+        check_parameter(name, values[name], meta)
+    inertia = values["motor_inertia"] + values["load_inertia"]
+    if not inertia > 0.0:
+        raise ValueError(f"motor_inertia + load_inertia = {inertia!r} kg.m2 is invalid: allowed > 0 kg.m2")
+    if values["motor_type"] == "induction":
+        synchronous_rpm = 60.0 * values["supply_frequency"] / values["pole_pairs"]
+        if not values["rated_speed"] < synchronous_rpm:
+            raise ValueError(f"parameter 'rated_speed' = {values['rated_speed']!r} rpm is out of range: allowed "
+                             f"(0, {synchronous_rpm:g}) rpm, below the synchronous speed 60 f/p")
+
+
 def check_parameter(name, value, meta):
     """Raise ValueError naming the parameter, its value and the allowed values or range."""
     if "choices" in meta:
@@ -116,16 +154,7 @@ class MotorSlave(GuardedSlave):
 
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
-        for name, meta in PARAMETERS.items():
-            check_parameter(name, getattr(self, name), meta)
-        inertia = self.motor_inertia + self.load_inertia
-        if not inertia > 0.0:
-            raise ValueError(f"motor_inertia + load_inertia = {inertia!r} kg.m2 is invalid: allowed > 0 kg.m2")
-        if self.motor_type == "induction":
-            synchronous_rpm = 60.0 * self.supply_frequency / self.pole_pairs
-            if not self.rated_speed < synchronous_rpm:
-                raise ValueError(f"parameter 'rated_speed' = {self.rated_speed!r} rpm is out of range: allowed "
-                                 f"(0, {synchronous_rpm:g}) rpm, below the synchronous speed 60 f/p")
+        check_parameters({name: getattr(self, name) for name in PARAMETERS})
         self._build_model()
         self.time = 0.0
         self.state = (self.initial_speed * RPM, 0.0, 0.0, 0.0, 0.0)
@@ -171,6 +200,22 @@ class MotorSlave(GuardedSlave):
                       shaft_angle=y[2], current=y[1], electrical_energy=y[3], motor_work=y[4])
 
     # state --------------------------------------------------------------------------------------------------
+    def changed_parameters(self):
+        return {name: getattr(self, name) for name, meta in PARAMETERS.items()
+                if getattr(self, name) != meta["default"]}
+
+    @classmethod
+    def model_schema(cls):
+        return MODEL_SCHEMA
+
+    @classmethod
+    def model_relations(cls):
+        return (_check_built,)
+
+    @classmethod
+    def model_time(cls, model):
+        return model["time"] if model["built"] else None
+
     def snapshot(self):
         return dict(parameters={name: getattr(self, name) for name in PARAMETERS}, built=self.model is not None,
                     time=self.time, state=list(self.state), outputs=dict(self.outputs),
@@ -182,8 +227,7 @@ class MotorSlave(GuardedSlave):
         if set(parameters) != set(PARAMETERS) or len(values) != 5:
             raise ValueError("the state is not this motor's")
         if state["built"]:
-            for name, meta in PARAMETERS.items():
-                check_parameter(name, parameters[name], meta)
+            check_parameters(parameters)
         for name, value in parameters.items():
             setattr(self, name, value)
         for name in INPUTS:

@@ -8,10 +8,13 @@ standard prescribes (the README's contract table lists them):
 
 * fmi2Error for misuse: a call the current state does not allow (the message names the state), a bad parameter,
   a write to an output, to a fixed parameter after initialization or of the wrong type, an unknown value
-  reference, a step size that is not finite and > 0, a communication point that does not continue the model time;
-  the shim then holds the instance in the error state until fmi2SetFMUstate or fmi2Reset;
+  reference, a step size that is not finite and > 0, a communication point that does not continue the model time,
+  a step past the stopTime of fmi2SetupExperiment, state bytes whose content is not a state this slave saves
+  (checked in full against its schema, fmu_src/state_schema.py, before any of it is used); the shim then holds the
+  instance in the error state until fmi2SetFMUstate or fmi2Reset;
 * fmi2Discard for a step that was not taken and may be retried: an input value out of range, a step the
-  integrator could not complete; the model is then exactly as before the call (`do_step` restores a snapshot);
+  integrator could not complete or that exceeded its work bound; the model is then exactly as before the call
+  (`do_step` restores a snapshot);
 * fmi2Warning for a value that is returned but has no defined value (NaN), with the reason.
 
 The states of FMI 2.0 co-simulation this glue keeps: instantiated, initialization mode, initialized (FMI's
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 import sys
 import weakref
 from fractions import Fraction
@@ -35,6 +39,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean, Integer, Real, String
 
 from . import state_format
+from . import state_schema as schema
 from .exit_guard import release_at_exit
 from .variables import RealVariable, unit_definitions
 
@@ -46,6 +51,7 @@ INSTANTIATED, INITIALIZATION_MODE, INITIALIZED, TERMINATED = ("instantiated", "i
                                                               "terminated")
 PHASES = (INSTANTIATED, INITIALIZATION_MODE, INITIALIZED, TERMINATED)
 CONTINUITY_ULPS = 16          # a communication point continues if within 16 ulp of the previous point + step size
+STOP_SLACK = 1e-6             # a step may end past stopTime by this fraction of its size (a master's rounding)
 
 
 class StepFailed(Exception):
@@ -66,7 +72,7 @@ class SavedState:
 
 class RefusedState:
     """What fmi2DeSerializeFMUstate made of bytes that are not a state of this FMU (the shim refuses it at once:
-    its serialized size is 0; fmi2SetFMUstate of it is fmi2Error)."""
+    its serialized size is 0; fmi2SetFMUstate of it is fmi2Error and logs the reason to the instance's logger)."""
 
     __slots__ = ("reason",)
 
@@ -80,8 +86,9 @@ class Clock:
     its step size, compared within a few ulp of the magnitudes involved: at a start time of 1e9 s a master's own
     clock is resolved to 1.2e-7 s)."""
 
-    def __init__(self, start_time: float):
+    def __init__(self, start_time: float, stop_time: float | None = None):
         self.start_time = float(start_time)
+        self.stop_time = stop_time            # fmi2SetupExperiment's stopTime, if defined
         self.elapsed = Fraction(0)
         self.next_point = self.start_time
 
@@ -96,21 +103,58 @@ class Clock:
     def end_of(self, step_size: float) -> Fraction:
         return self.elapsed + Fraction(step_size)
 
+    def past_stop(self, point: float, step_size: float) -> str | None:
+        """Why a step of `step_size` from `point` would end past the stop time, or None. A master's own clock may
+        have drifted by its roundings (t += h): an end within 16 ulp or a millionth of the step past the stop time
+        is taken as the stop time."""
+        end = point + step_size
+        slack = max(CONTINUITY_ULPS * math.ulp(max(abs(end), abs(self.stop_time or 0.0))), STOP_SLACK * step_size)
+        if self.stop_time is None or end - self.stop_time <= slack:
+            return None
+        return (f"fmi2DoStep from t = {point!r} s of {step_size!r} s would end at t = {end!r} s, past the stopTime "
+                f"= {self.stop_time!r} s given to fmi2SetupExperiment; nothing was done (FMI 2.0: a step beyond the "
+                f"stop time is an error)")
+
     def commit(self, point: float, step_size: float, elapsed: Fraction) -> None:
         self.elapsed = elapsed
         self.next_point = point + step_size
 
     def get_state(self) -> dict:
-        return dict(start_time=self.start_time, elapsed=[self.elapsed.numerator, self.elapsed.denominator],
-                    next_point=self.next_point)
+        return dict(start_time=self.start_time, stop_time=self.stop_time,
+                    elapsed=[self.elapsed.numerator, self.elapsed.denominator], next_point=self.next_point)
 
     @classmethod
     def from_state(cls, state: dict) -> "Clock":
-        clock = cls(float(state["start_time"]))
+        clock = cls(float(state["start_time"]), state["stop_time"])
         numerator, denominator = state["elapsed"]
         clock.elapsed = Fraction(int(numerator), int(denominator))
         clock.next_point = float(state["next_point"])
         return clock
+
+
+# a saved clock (Clock.get_state): the elapsed time is a sum of doubles, a fraction with a power of two (at most
+# 2**1074) as denominator; its numerator is below 2**2200 for any sum of fewer than 2**100 finite doubles
+CLOCK_SCHEMA = schema.Record({"start_time": schema.Real(), "stop_time": schema.Nullable(schema.Real()),
+                              "elapsed": schema.Sequence(schema.Integer(0, 2 ** 2200), 2), "next_point": schema.Real()})
+
+
+def check_clock(clock: dict, model_time: float | None) -> None:
+    """The saved clock against the model time of the saved model (None: no model built yet)."""
+    numerator, denominator = clock["elapsed"]
+    if denominator <= 0 or denominator & (denominator - 1) or denominator.bit_length() > 1075:
+        raise ValueError(f"state field 'clock.elapsed' has the denominator {str(denominator)[:40]}: allowed a power "
+                         f"of two up to 2**1074 (a sum of step sizes)")
+    elapsed = Fraction(numerator, denominator)
+    if clock["stop_time"] is not None and clock["stop_time"] < clock["start_time"]:
+        raise ValueError(f"the state is inconsistent: its stop time {clock['stop_time']!r} s is before its start "
+                         f"time {clock['start_time']!r} s")
+    if model_time is None and (elapsed != 0 or clock["next_point"] != clock["start_time"]):
+        raise ValueError(f"the state is inconsistent: no model is built, yet the clock has run (elapsed "
+                         f"{float(elapsed)!r} s, next communication point {clock['next_point']!r} s, start time "
+                         f"{clock['start_time']!r} s)")
+    if model_time is not None and float(elapsed) != model_time:
+        raise ValueError(f"the state is inconsistent: the clock's elapsed time {float(elapsed)!r} s is not the "
+                         f"model's time {model_time!r} s")
 
 
 def guarded(method):
@@ -192,7 +236,10 @@ class GuardedSlave(PythonFmuSlave):
         if not math.isfinite(start_time):
             return self.report(f"fmi2SetupExperiment: startTime = {start_time!r} s is invalid: allowed a finite "
                                f"time")
-        self.clock = Clock(start_time)
+        if stop_time is not None and not (math.isfinite(stop_time) and stop_time >= start_time):
+            return self.report(f"fmi2SetupExperiment: stopTime = {stop_time!r} s is invalid: allowed a finite time "
+                               f">= startTime = {start_time!r} s")
+        self.clock = Clock(start_time, stop_time)
 
     def enter_initialization_mode(self):
         refusal = self.wrong_state("fmi2EnterInitializationMode", (INSTANTIATED,))
@@ -210,10 +257,11 @@ class GuardedSlave(PythonFmuSlave):
             self.initialize()
         except Exception as error:        # noqa: BLE001 - refused: the instance stays as it was (the shim: error state)
             self._roll_back(before)
-            return self.report(f"initialization refused: {error}" if isinstance(error, ValueError) else
+            return self.report(f"initialization refused: {blame_changed(str(error), self.changed_parameters())}"
+                               if isinstance(error, ValueError) else
                                f"initialization failed ({type(error).__name__}: {str(error)[:400]})")
         self.phase = INITIALIZED
-        self.clock = Clock(self.clock.start_time)
+        self.clock = Clock(self.clock.start_time, self.clock.stop_time)
 
     def terminate(self):
         refusal = self.wrong_state("fmi2Terminate", (INITIALIZED,))
@@ -230,7 +278,7 @@ class GuardedSlave(PythonFmuSlave):
             return self.refuse(f"fmi2DoStep refused: {self.failure}")
         if not (math.isfinite(step_size) and step_size > 0.0):
             return self.refuse(f"communication step size = {step_size!r} s is invalid: allowed a finite value > 0")
-        discontinuity = self.clock.discontinuity(current_time)
+        discontinuity = self.clock.discontinuity(current_time) or self.clock.past_stop(current_time, step_size)
         if discontinuity is not None:
             return self.refuse(discontinuity)
         bad_input = self.input_error()
@@ -271,7 +319,8 @@ class GuardedSlave(PythonFmuSlave):
     @guarded
     def _set_fmu_state(self, state):
         if isinstance(state, RefusedState):
-            return self.report(f"fmi2SetFMUstate: the state was refused when it was read: {state.reason}")
+            return self.report(f"fmi2DeSerializeFMUstate refused the state: {state.reason}; nothing of it was used, "
+                               f"the current state is kept")
         if not isinstance(state, SavedState):
             return self.report(f"fmi2SetFMUstate: a {type(state).__name__} is not a state of this FMU")
         tree = state.tree
@@ -303,18 +352,33 @@ class GuardedSlave(PythonFmuSlave):
     @classmethod
     def _fmu_state_from_bytes(cls, blob: bytes):
         """The state in `blob`, or a RefusedState (fmu_src/c/fmi2_status_shim.c has already refused a blob whose
-        envelope is not this FMU's: wrong magic, version, length, checksum or build)."""
+        envelope is not this FMU's: wrong magic, version, length, checksum or build). The content is checked in
+        full (check_state_tree) before anything of it is used; no exception leaves (pythonfmu would answer
+        fmi2Fatal and destroy the instance). pythonfmu calls this on the class, which has no logger: the reason
+        goes to stderr here and to the instance's logger when the RefusedState reaches `_set_fmu_state`."""
         try:
             tree = state_format.decode(blob, cls.__name__, build_fingerprint())
-        except ValueError as error:
-            print(f"[{cls.__name__}] fmi2DeSerializeFMUstate refused: {error}", file=sys.stderr, flush=True)
-            return RefusedState(f"fmi2DeSerializeFMUstate: {error}")
-        if not (isinstance(tree, dict) and set(tree) == {"phase", "clock", "failure", "model"}
-                and tree["phase"] in PHASES):
-            print(f"[{cls.__name__}] fmi2DeSerializeFMUstate refused: the description is not of an FMU state",
-                  file=sys.stderr, flush=True)
-            return RefusedState("fmi2DeSerializeFMUstate: the description is not of an FMU state")
+            cls.check_state_tree(tree)
+        except Exception as error:          # noqa: BLE001 - any fault of the bytes is a refusal
+            reason = f"{str(error)[:600]}" if isinstance(error, ValueError) else \
+                f"{type(error).__name__}: {str(error)[:600]}"
+            print(f"[{cls.__name__}] fmi2DeSerializeFMUstate refused: {reason}", file=sys.stderr, flush=True)
+            return RefusedState(reason)
         return SavedState(tree, bytes(blob))
+
+    @classmethod
+    def check_state_tree(cls, tree) -> None:
+        """ValueError naming the first field of `tree` (a state read from bytes) that is not what this slave saves
+        (fmu_src.state_schema): the phase, the clock against the model's time, the model (`model_schema`,
+        `model_relations`)."""
+        tree_schema = schema.Record({"phase": schema.Text(PHASES), "clock": CLOCK_SCHEMA,
+                                     "failure": schema.Nullable(schema.Text(length=5000)), "model": cls.model_schema()})
+        schema.check(tree_schema, cls.model_relations(), tree)
+        model_time = cls.model_time(tree["model"])
+        if (model_time is not None) != (tree["phase"] in (INITIALIZED, TERMINATED)):
+            raise ValueError(f"the state is inconsistent: phase {tree['phase']!r} "
+                             f"{'with' if model_time is not None else 'without'} a built model")
+        check_clock(tree["clock"], model_time)
 
     @classmethod
     def serializable(cls, tree):
@@ -450,6 +514,42 @@ class GuardedSlave(PythonFmuSlave):
     def undefined_reason(self, name: str) -> str:
         """Why the Real variable `name` has no defined value now."""
         return "no defined value"
+
+    def changed_parameters(self) -> dict:
+        """The parameters whose values differ from their defaults (name -> value)."""
+        return {}
+
+    @classmethod
+    def model_schema(cls) -> schema.Spec:
+        """The schema of `snapshot`'s tree as read back from bytes (fmu_src.state_schema)."""
+        raise NotImplementedError
+
+    @classmethod
+    def model_relations(cls) -> tuple:
+        """Checks between the fields of a state tree (functions of the whole tree raising ValueError), run after
+        the fields fit `model_schema`."""
+        return ()
+
+    @classmethod
+    def model_time(cls, model) -> float | None:
+        """The model time (from the start time) of a `snapshot` tree that fits `model_schema`; None if it holds
+        no built model."""
+        raise NotImplementedError
+
+
+NAMED_PARAMETER = re.compile(r"parameter '(\w+)'")
+
+
+def blame_changed(refusal: str, changed: dict) -> str:
+    """A refusal at initialization that names a parameter the importer did not change (a relation: `rotor_radius`
+    at its minimum refused through the `stroke` it leaves no room for), led by the parameters that were changed,
+    with their values, so that the message names the parameter that was set (README contract row C2)."""
+    named = NAMED_PARAMETER.search(refusal)
+    if named is None or named.group(1) in changed or not changed:
+        return refusal
+    values = ", ".join(f"'{name}' = {schema.short_repr(value)}" for name, value in changed.items())
+    return (f"parameter{'s' if len(changed) > 1 else ''} {values} {'are' if len(changed) > 1 else 'is'} refused: "
+            f"with {'them' if len(changed) > 1 else 'it'}, {refusal}")
 
 
 def build_fingerprint() -> str:

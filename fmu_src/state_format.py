@@ -129,7 +129,8 @@ def decode(blob: bytes, model: str, fingerprint: str):
             return [value(item, depth + 1) for item in entry]
         if isinstance(entry, dict) and set(entry) == {"d"} and isinstance(entry["d"], dict):
             return {key: value(item, depth + 1) for key, item in entry["d"].items()}
-        if isinstance(entry, dict) and set(entry) == {"f"} and entry["f"] in NON_FINITE:
+        if isinstance(entry, dict) and set(entry) == {"f"} and isinstance(entry["f"], str) \
+                and entry["f"] in NON_FINITE:
             return NON_FINITE[entry["f"]]
         if isinstance(entry, dict) and "a" in entry:
             return _array(entry, data)
@@ -141,7 +142,7 @@ def decode(blob: bytes, model: str, fingerprint: str):
 def _array(entry: dict, data: memoryview) -> np.ndarray:
     dtype, shape = entry.get("a"), entry.get("shape")
     offset, size = entry.get("offset"), entry.get("size")
-    if dtype not in ARRAY_DTYPES:
+    if not isinstance(dtype, str) or dtype not in ARRAY_DTYPES:
         raise ValueError(f"state array of dtype {str(dtype)[:40]!r}: allowed {sorted(ARRAY_DTYPES)}")
     if (not isinstance(shape, list) or len(shape) > 8
             or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in [*shape, offset, size])):

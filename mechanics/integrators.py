@@ -26,7 +26,7 @@ from .chamber_geometry import SectorTable
 from .dynamics import KernelContext, chamber_inputs_at, evaluate
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
                      MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
-                     RECORD_FULL, STEP_TOO_SMALL, VX, VY, X, Y)
+                     RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_LIMIT, X, Y)
 from .machine import ABM4, REAL_GAS_MODEL
 from .outputs import O
 from .regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
@@ -230,13 +230,14 @@ def _cross_valley(t, y, memory, ctx, real_gas):
 
 @kernel
 def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, out, scratch, rows_out,
-            keep_rows, lobe_records, counters):
+            keep_rows, lobe_records, counters, max_attempts):
     """Integrate from t to t_end (module docstring). y, memory, control, history, window, run_dwell and counters are
     updated in place; work is the workspace (WORKSPACE_ROWS rows) and work_rows the same rows as a tuple of arrays (a
     function without reference counting cannot take views); out and scratch are output rows;
     accepted output rows go to rows_out (all of them if keep_rows, else only the last in rows_out[0]), lobe records
-    to lobe_records.
-    Returns (status, t, rows written, lobe records written).
+    to lobe_records. At most max_attempts steps are attempted (accepted or rejected): then the status is WORK_LIMIT,
+    so that no state (a step size of 0 or 5e-324, a time that does not advance) can make the loop spin.
+    Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number.
 
     DOPRI5 step control (Hairer's RMS norm, PI control):
       h_new = h min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)),  beta = 0.04, no growth after a rejection.
@@ -260,9 +261,17 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
             history[0, i] = work[0, i]
         valid = max(valid, 1)
     rejected_last = False
+    full = False
+    attempts = 0
     while t < t_end:
         if (keep_rows and rows >= rows_out.shape[0]) or records >= lobe_records.shape[0]:
+            full = True
             break
+        if attempts >= max_attempts:
+            control[CONTROL_STEP] = h
+            control[CONTROL_HISTORY] = valid
+            return WORK_LIMIT, t, rows, records
+        attempts += 1
         if not abm:
             h = min(h, m.max_step)
         step, event = _clip_to_events(t, h, t_end, ctx.law, memory, m)
@@ -353,35 +362,40 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     control[CONTROL_PREVIOUS_ERROR] = previous_error
     control[CONTROL_HISTORY] = valid
     control[CONTROL_SMALL_ERRORS] = small_errors
-    return (REACHED_END if t >= t_end else RECORD_FULL), t, rows, records
+    if t >= t_end:
+        return REACHED_END, t, rows, records
+    return (RECORD_FULL if full else NOT_FINITE), t, rows, records
 
 
 @kernel(allocates=True)
 def context(machine, law, pressure_table, chambers, flow_work, table_scalars, table_nodes, dome_limit, accurate_cell,
-            ideal_gas_exponent, nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
+            ideal_gas_exponent, saturation_nodes, nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
             nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity, nozzle_dome_limit, nozzle_accurate_cell,
-            sector_segments, sector_nodes):
+            nozzle_saturation_nodes, nozzle_dome_critical_ratio, nozzle_dome_choked_flux_factor,
+            nozzle_dome_shape_factor, nozzle_dome_accurate_cell, sector_segments, sector_nodes):
     """The KernelContext of plain arrays: only arrays cross the Python -> numba boundary (a named tuple costs
     microseconds per call to unbox), the named records are built here."""
     return KernelContext(machine, law, pressure_table, chambers, flow_work,
                          table_from_arrays(table_scalars, table_nodes, dome_limit, accurate_cell,
-                                           ideal_gas_exponent),
+                                           ideal_gas_exponent, saturation_nodes),
                          nozzle_table_from_arrays(nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
                                                   nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity,
-                                                  nozzle_dome_limit, nozzle_accurate_cell),
+                                                  nozzle_dome_limit, nozzle_accurate_cell, nozzle_saturation_nodes,
+                                                  nozzle_dome_critical_ratio, nozzle_dome_choked_flux_factor,
+                                                  nozzle_dome_shape_factor, nozzle_dome_accurate_cell),
                          SectorTable(sector_segments, sector_nodes))
 
 
 @kernel(allocates=True)
 def run(t, t_end, y, memory, control, history, window, run_dwell, work, outs, rows_out, keep_rows, lobe_records,
-        counters, *context_arrays):
+        counters, max_attempts, *context_arrays):
     """`advance` with its context (the arrays of `context`, in its order) and workspace given as arrays (the entry
     point mechanics.simulation calls): the named records and the tuple of workspace rows are built here, once per
     advance."""
     ctx = context(*context_arrays)
     work_rows = (work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10])
     return advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, outs[0], outs[1],
-                   rows_out, keep_rows, lobe_records, counters)
+                   rows_out, keep_rows, lobe_records, counters, max_attempts)
 
 
 @kernel(allocates=True)

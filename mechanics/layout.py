@@ -26,10 +26,12 @@ MEM_LAW_EXCESS = MEM_MODE + 2  # largest penetration beyond a force law's validi
 MEMORY_SIZE = MEM_MODE + 3
 
 # kernel status codes (0 = reached the end time)
-REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, GAS_STATE_INVALID = range(6)
+REACHED_END, RECORD_FULL, STEP_TOO_SMALL, NOT_FINITE, TIP_ON_FLAT_FACE, GAS_STATE_INVALID, WORK_LIMIT = range(7)
 STATUS_TEXT = {
     STEP_TOO_SMALL: "the step size fell below min_step",
     NOT_FINITE: "the state became non-finite",
     TIP_ON_FLAT_FACE: "the stator touches a flat face of the vane (|psi_c| > pi/2, docs/model.md §2.6)",
     GAS_STATE_INVALID: "a chamber state left the fluid property table (two-phase dome or outside its envelope)",
+    WORK_LIMIT: "the integrator attempted more steps than the work bound allows for this interval "
+                "(mechanics.simulation.work_bound)",
 }

@@ -23,11 +23,11 @@ from .displacement import displacement
 from .errors import ContactLawWarning, IntegrationError
 from .gas_coupling import gas_coupling
 from .geometry import law_arguments
-from .integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, WORKSPACE_ROWS,
-                          evaluate_state, initial_chamber_inputs, run)
+from .integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, REJECTED,
+                          WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
                      MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
-                     VY, WORK_IN, X, Y)
+                     VY, WORK_IN, WORK_LIMIT, X, Y)
 from .machine import machine_array, record_of
 from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
@@ -38,6 +38,18 @@ from .windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZ
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
+# The work bound of one advance: at most WORK_FLOOR + `work_per_ms` step attempts (accepted or rejected) per ms of
+# the interval. Valid runs need (benchmarks/bench_work_bound.py) 70-220 per ms at 1500 rpm, about 520 at 30000 rpm
+# or at the tightest tolerances, and 100 000 with max_step at its minimum of 1e-8 s; the default, WORK_PER_MS, is
+# ten times that: a state that cannot advance (a step size of 0 or 5e-324, a time that does not move) stops at it
+# instead of spinning.
+WORK_FLOOR = 1000
+WORK_PER_MS = 1_000_000
+
+
+def work_bound(interval: float, work_per_ms: float = WORK_PER_MS) -> int:
+    """The most step attempts an advance over `interval` seconds may make."""
+    return WORK_FLOOR + math.ceil(work_per_ms * min(interval, 1e6) * 1e3)
 
 
 class History:
@@ -89,6 +101,7 @@ class Simulation:
     it itself).
     """
     warn_contact_law = True
+    work_per_ms = WORK_PER_MS            # the work bound (work_bound) of each advance
 
     def __init__(self, params: CompressorParameters | None = None, speed: SpeedLaw | None = None,
                  initial_angle: float = 0.02, keep_history: bool = True, table_speed_rpm: float | None = None):
@@ -245,11 +258,14 @@ class Simulation:
             self._speed_for_advance(float(end_time), speed_rpm, interpolate)
         if end_time == self.time:
             return
+        start, budget = self.time, work_bound(end_time - self.time, self.work_per_ms)
+        attempts = self.counters[ACCEPTED] + self.counters[REJECTED]
         while True:
             status, t, rows, records = run(
                 self.time, float(end_time), self.state, self.memory, self.control, self.abm_history, self.window,
                 self.run_dwell, self._work, self._outs, self._rows, self.keep_history, self._record_buffer,
-                self.counters, *self._kernel_context())
+                self.counters, budget - (self.counters[ACCEPTED] + self.counters[REJECTED] - attempts),
+                *self._kernel_context())
             self.time = t
             if rows:
                 last = self._rows[rows - 1] if self.keep_history else self._rows[0]
@@ -261,6 +277,11 @@ class Simulation:
             self._note_law_excess(records)
             if status == REACHED_END:
                 return
+            if status == WORK_LIMIT:
+                raise IntegrationError(f"{self._failure_text(status)}: {budget} attempts for the "
+                                       f"{end_time - start:.6g} s from t = {start!r} s to {end_time!r} s reached "
+                                       f"only t = {t!r} s, with the step size {self.control[CONTROL_STEP]!r} s",
+                                       t, self.state)
             if status != RECORD_FULL:
                 raise IntegrationError(self._failure_text(status), t, self.state)
 

@@ -11,6 +11,7 @@ from rotary_vane.mechanics.displacement import displacement
 from rotary_vane.mechanics.geometry import law_arguments
 from rotary_vane.mechanics.outputs import REAL_GAS_COLUMNS
 from rotary_vane.mechanics.performance import lobes, revolutions
+from rotary_vane.mechanics.regions import REGION_COUNT
 
 CLEARANCES = (0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3)
 INTEGRATORS = ("dopri5", "abm4")
@@ -163,11 +164,12 @@ def test_start_up(clearance):
     simulation = start_up(clearance)
     h = simulation.history
     assert simulation.time == 1.2
-    penetrations = [f"penetration_{k}" for k in range(1, 7)] + [f"penetration_rate_{k}" for k in range(1, 7)]
+    regions = range(1, REGION_COUNT + 1)
+    penetrations = [f"penetration_{k}" for k in regions] + [f"penetration_rate_{k}" for k in regions]
     for name in h.names:
         if name not in penetrations and name not in REAL_GAS_COLUMNS:   # NaN: not applicable/modelled
             assert np.all(np.isfinite(h[name])), name
-    for region in range(1, 7):
+    for region in regions:
         assert np.nanmax(h[f"penetration_{region}"]) < 50e-6
     assert np.max(np.abs(h["contact_angle"])) < math.pi / 2
     angle, omega, theta_ddot = h["rotor_angle"], h["rotor_speed"], h["rotor_acceleration"]

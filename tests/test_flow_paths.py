@@ -30,7 +30,7 @@ from rotary_vane.thermo.flow_paths import (BACK, FIXED_GAP, FLOW_PATHS, LEADING,
 from rotary_vane.thermo.property_table import table_from_arrays
 from rotary_vane.thermo.leakage import (LEAKAGE_LAWS, friction_length, harmonic_valley_seal_radius,
                                         signed_real_gas_leakage_flow, valley_seal_radius)
-from rotary_vane.thermo.real_gas_nozzle import nozzle_table_from_arrays
+from rotary_vane.thermo.real_gas_nozzle import ARRAY_FIELDS, nozzle_table_from_arrays
 
 OPERATING = dict(pressure_model="real_gas", slot_clearance=5e-5, stator_clearance=5e-5)
 EVERY_PATH_OPEN = dict(OPERATING, slot_leak_law="nozzle")
@@ -321,7 +321,7 @@ def test_metastable_throat_is_accepted_and_counted_a_refused_inlet_invalidates_t
     assert refused == 2 and math.isnan(cold["end_valley_leak"]) and math.isnan(cold["discharge"])   # seal, valve
     refusing = Simulation(sim.params, constant_speed(1500.0), initial_angle=MID_LOBE)
     assert refusing.evaluate(0.0, y)[0] == 0
-    refusing.gas.nozzles[-1][:] = False                         # accurate_cell
+    refusing.gas.nozzles[1 + ARRAY_FIELDS.index("accurate_cell")][:] = False   # after the header
     assert refusing.evaluate(0.0, y)[0] == GAS_STATE_INVALID
 
 

@@ -1,117 +1,49 @@
-"""The compressor FMU in a host that is not a Python program: a small C host (tests/c_host/fmu_host.c, compiled here
-with gcc) dlopens the FMU binary and runs it through the plain FMI 2 C API, as OMSimulator, Simulink or Dymola do.
+"""The compressor FMU in hosts that are not Python programs, and what its shim (fmu_src/c/fmi2_status_shim.c)
+answers for itself.
 
-The FMU binary (pythonfmu 0.7.0) does not link libpython, so the host runs with LD_PRELOAD of the running
-interpreter's libpython; PYTHONHOME is the interpreter's installation and PYTHONPATH its site-packages, so that the
-embedded interpreter finds numpy and numba (the project's own code is bundled inside the FMU). The result is
-compared with the same run through fmpy, in a subprocess too.
+A small C host (tests/c_host/fmu_host.c, compiled here with gcc) dlopens the FMU binary and runs it through the plain
+FMI 2 C API, as Ecos, OMSimulator, Simulink or Dymola do, from a clean environment: PATH=/usr/bin:/bin and HOME only,
+no LD_PRELOAD, PYTHONHOME or PYTHONPATH. The FMU's shim loads the libpython of the interpreter that built it
+(fmu_src/c/host_python.c). The result is compared with the same run through fmpy, in a subprocess too. The runs
+themselves are in tests/fmu_shim_cases.py (shared with the README's contract rows in tests/test_fmu_contract.py).
 """
 from __future__ import annotations
 
 import json
 import os
-import re
-import shutil
 import signal
-import site
 import subprocess
 import sys
-import sysconfig
 import textwrap
-import zipfile
 from pathlib import Path
-from xml.etree import ElementTree
 
 import pytest
 
-PROJECT = Path(__file__).resolve().parent.parent
-HOST_SOURCE = Path(__file__).resolve().parent / "c_host" / "fmu_host.c"
+import fmu_shim_cases as S
+from fmu_shim_cases import INSTANCE, NULL
+
 MODEL = "RotaryVaneCompressor"
 SPEED_RPM = 1500.0
 STEPS, STEP_SIZE = 200, 1e-3
-
-
-def shared_libpython() -> Path | None:
-    """The running interpreter's shared libpython (LIBDIR + INSTSONAME or LDLIBRARY), or None for a static one."""
-    if not sysconfig.get_config_var("Py_ENABLE_SHARED"):
-        return None
-    directory = sysconfig.get_config_var("LIBDIR") or ""
-    for name in (sysconfig.get_config_var("INSTSONAME"), sysconfig.get_config_var("LDLIBRARY")):
-        if name and ".so" in name and (Path(directory) / name).is_file():
-            return Path(directory) / name
-    return None
-
-
-def host_environment(libpython: Path) -> dict[str, str]:
-    """Environment of the C host: libpython preloaded, the interpreter's prefix and site-packages."""
-    env = {key: value for key, value in os.environ.items() if not key.startswith("PYTHON")}
-    env["LD_PRELOAD"] = str(libpython)
-    # pythonfmu initializes Python with the program name "./PythonFMU": the prefix would come from libpython's
-    # build-time setting. PYTHONHOME makes it the running interpreter's (also for a relocated installation).
-    home = sys.base_prefix if sys.base_prefix == sys.base_exec_prefix else \
-        f"{sys.base_prefix}{os.pathsep}{sys.base_exec_prefix}"
-    env["PYTHONHOME"] = home
-    # the site-packages of the running interpreter (a virtual environment's too): numpy, numba, scipy
-    paths = [p for p in site.getsitepackages() if Path(p).is_dir()]
-    if site.ENABLE_USER_SITE and Path(site.getusersitepackages()).is_dir():
-        paths.append(site.getusersitepackages())
-    env["PYTHONPATH"] = os.pathsep.join(paths)
-    return env
+DECLARED_CATEGORIES = {"logAll", "logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal"}
 
 
 @pytest.fixture(scope="session")
-def c_host_fmu(built_fmus, tmp_path_factory):
-    """The FMU built once per session, unzipped in Python, and its modelDescription facts."""
-    fmu = built_fmus / f"{MODEL}.fmu"
-    unzipdir = tmp_path_factory.mktemp("c_host_fmu") / "unzipped"
-    with zipfile.ZipFile(fmu) as archive:
-        archive.extractall(unzipdir)
-    root = ElementTree.parse(unzipdir / "modelDescription.xml").getroot()
-    references = {v.get("name"): int(v.get("valueReference")) for v in root.iter("ScalarVariable")}
-    return {"fmu": fmu, "dir": unzipdir, "guid": root.get("guid"),
-            "identifier": root.find("CoSimulation").get("modelIdentifier"), "vr": references}
+def folder(tmp_path_factory) -> Path:
+    return S.cases_folder(tmp_path_factory)
 
 
 @pytest.fixture(scope="session")
-def c_host(tmp_path_factory):
-    """The host binary, compiled with gcc."""
-    gcc = shutil.which("gcc")
-    if gcc is None:
-        pytest.skip("gcc is not installed")
-    binary = tmp_path_factory.mktemp("c_host") / "fmu_host"
-    compiled = subprocess.run([gcc, "-std=c99", "-O1", "-Wall", "-Wextra", "-o", str(binary), str(HOST_SOURCE),
-                               "-ldl"], capture_output=True, text=True, timeout=120)
-    assert compiled.returncode == 0, compiled.stderr
-    assert "warning" not in compiled.stderr, compiled.stderr
-    return binary
+def c_host_fmu(built_fmus, folder):
+    return S.unpacked(built_fmus / f"{MODEL}.fmu", folder)
 
 
 @pytest.fixture(scope="session")
-def libpython():
-    library = shared_libpython()
-    if library is None:
-        pytest.skip(f"this interpreter has no shared libpython (Py_ENABLE_SHARED = "
-                    f"{sysconfig.get_config_var('Py_ENABLE_SHARED')!r}, LDLIBRARY = "
-                    f"{sysconfig.get_config_var('LDLIBRARY')!r}): a C host cannot preload it")
-    return library
-
-
-def run_host(c_host, fmu, libpython, speed=SPEED_RPM, steps=STEPS, quick_exit=True, timeout=300):
-    arguments = [str(c_host), str(fmu["dir"]), fmu["identifier"], fmu["guid"], str(fmu["vr"]["shaft_speed"]),
-                 str(fmu["vr"]["shaft_torque_mean"]), str(fmu["vr"]["input_power"]), repr(speed), str(steps),
-                 repr(STEP_SIZE)] + (["--quick-exit"] if quick_exit else [])
-    return subprocess.run(arguments, capture_output=True, text=True, timeout=timeout,
-                          env=host_environment(libpython), cwd=fmu["dir"].parent)
-
-
-def parse_result(stdout: str) -> dict:
-    match = re.search(r"^RESULT steps=(\d+) time=(\S+) shaft_torque_mean=(\S+) input_power=(\S+)$", stdout, re.M)
-    assert match, f"no RESULT line in the host's output:\n{stdout[-2000:]}"
-    worst = re.search(r"^WORST_STATUS (\d+)$", stdout, re.M)
-    return {"steps": int(match[1]), "time": float(match[2]), "shaft_torque_mean": float(match[3]),
-            "input_power": float(match[4]), "worst_status": int(worst[1]) if worst else None,
-            "not_ok_calls": re.findall(r"^CALL .*$", stdout, re.M),
-            "error_logs": re.findall(r"^LOG \[(?:DISCARD|ERROR|FATAL|PENDING|ILLEGAL)\].*$", stdout, re.M)}
+def c_host(folder):
+    try:
+        return S.c_host(folder)
+    except RuntimeError as error:
+        pytest.skip(str(error))
 
 
 def describe(process) -> str:
@@ -138,28 +70,29 @@ def fmpy_reference(c_host_fmu, tmp_path_factory):
     return json.loads(process.stdout.strip().splitlines()[-1])
 
 
-def test_c_host_runs_the_fmu_like_fmpy(c_host, c_host_fmu, libpython, fmpy_reference):
-    """200 steps of 1 ms at 1500 rpm: every call fmi2OK, exit status 0, mean input power within 1 % of fmpy.
-
-    The host ends with _exit() after fmi2FreeInstance and dlclose (see test_c_host_exits_normally)."""
-    process = run_host(c_host, c_host_fmu, libpython)
+def test_c_host_runs_the_fmu_like_fmpy_from_a_clean_environment(c_host, c_host_fmu, fmpy_reference):
+    """200 steps of 1 ms at 1500 rpm with no LD_PRELOAD, PYTHONHOME or PYTHONPATH: every call fmi2OK, exit status 0,
+    input power within 1e-7 of fmpy's (the same interpreter runs the same code). The host ends with _exit() after fmi2FreeInstance and dlclose (see
+    test_c_host_exits_normally)."""
+    env = S.clean_environment()
+    assert not any(key.startswith(("PYTHON", "LD_")) for key in env), env
+    process = S.c_host_run(c_host, c_host_fmu, env, "--quick-exit")
     assert process.returncode == 0, describe(process)
-    result = parse_result(process.stdout)
+    result = S.parse_c_host(process.stdout)
     assert result["worst_status"] == 0 and not result["not_ok_calls"], result["not_ok_calls"]
     assert not result["error_logs"], result["error_logs"]
     assert result["steps"] == STEPS and result["time"] == pytest.approx(STEPS * STEP_SIZE)
     assert fmpy_reference["time"] == pytest.approx(STEPS * STEP_SIZE), "the fmpy run stopped early"
     assert fmpy_reference["input_power"] > 0.0
-    assert result["input_power"] == pytest.approx(fmpy_reference["input_power"], rel=0.01)
+    assert result["input_power"] == pytest.approx(fmpy_reference["input_power"], rel=1e-7)
 
 
-def test_c_host_prints_the_fmu_messages(c_host, c_host_fmu, libpython):
-    """A negative speed as the start value: initialization is refused with fmi2Error (through the FMU's status
-    shim, fmu_src/c/fmi2_status_shim.c), the next call is refused in the FMI error state, and the FMU's messages
-    reach the C logger."""
-    process = run_host(c_host, c_host_fmu, libpython, speed=-5.0, steps=3)
+def test_c_host_prints_the_fmu_messages(c_host, c_host_fmu):
+    """A negative speed as the start value: initialization is refused with fmi2Error, the next call is refused in
+    the FMI error state, and the FMU's messages reach the C logger with a declared category."""
+    process = S.c_host_run(c_host, c_host_fmu, S.clean_environment(), "--quick-exit", speed=-5.0, steps=3)
     assert process.returncode == 3, describe(process)
-    result = parse_result(process.stdout)
+    result = S.parse_c_host(process.stdout)
     assert result["worst_status"] == 3 and result["steps"] == 0
     assert any("fmi2ExitInitializationMode -> ERROR" in line for line in result["not_ok_calls"]), \
         result["not_ok_calls"]
@@ -168,12 +101,155 @@ def test_c_host_prints_the_fmu_messages(c_host, c_host_fmu, libpython):
     assert any("'shaft_speed' = -5.0 rpm" in line for line in result["error_logs"]), process.stdout
     assert any("not allowed in the error state" in line and "'shaft_speed' = -5.0 rpm" in line
                for line in result["error_logs"]), process.stdout
+    assert all(line.split()[3].rstrip(":") in DECLARED_CATEGORIES for line in result["logs"]), result["logs"]
 
 
-def test_c_host_exits_normally(c_host, c_host_fmu, libpython):
+def test_c_host_exits_normally(c_host, c_host_fmu):
     """The same run, the host returning from main: exit handlers and library destructors run, and the FMU's exit
     guard (fmu_src/exit_guard.py) keeps pythonfmu 0.7.0 from releasing its interpreter state twice there."""
-    process = run_host(c_host, c_host_fmu, libpython, steps=20, quick_exit=False)
-    result = parse_result(process.stdout)
+    process = S.c_host_run(c_host, c_host_fmu, S.clean_environment(), steps=20)
+    result = S.parse_c_host(process.stdout)
     assert result["worst_status"] == 0, result["not_ok_calls"]
     assert process.returncode == 0, describe(process)
+
+
+def test_c_host_reads_a_percent_encoded_non_ascii_folder(c_host, c_host_fmu, folder):
+    """The FMU unpacked into a folder with a space and non-ASCII letters, its binary loaded from there and the
+    resource location percent-encoded: in the C locale of a clean environment too (the shim starts Python in UTF-8
+    mode there, as the python program does)."""
+    copy = S.copy_of(c_host_fmu, folder / "c host in a folder with spaces" / "ünïcødé")
+    process = S.c_host_run(c_host, c_host_fmu, S.clean_environment(), "--quick-exit",
+                           f"--resources={(copy / 'resources').as_uri()}", directory=copy, steps=2)
+    assert process.returncode == 0, describe(process)
+    assert "%20" in (copy / "resources").as_uri() and "%C3%BC" in (copy / "resources").as_uri()
+
+
+def test_without_a_python_instantiate_returns_null_and_says_what_to_set(c_host, c_host_fmu, folder):
+    """ROTARY_VANE_PYTHON naming an interpreter that does not exist (python3 is on PATH, the build's interpreter
+    exists: the variable is the user's choice and is not replaced by another): NULL, and the message, through the
+    host's logger with a declared category, names the variable, its value and what it must name."""
+    process = S.no_python_run(c_host_fmu["fmu"], folder)
+    assert process.returncode == 3, describe(process)
+    result = S.parse_c_host(process.stdout)
+    assert result["not_ok_calls"] == ["CALL fmi2Instantiate -> NULL"] and result["steps"] is None
+    [message] = result["error_logs"]
+    assert message.startswith("LOG [ERROR] c_host logStatusError: fmi2Instantiate: "), message
+    assert "ROTARY_VANE_PYTHON=/nonexistent/bin/python3" in message and "requirements.txt" in message, message
+
+
+def shim_with_recorded_interpreter(c_host_fmu, target: Path, interpreter: dict) -> Path:
+    """A copy of the unpacked FMU whose shim records `interpreter` as the one that built it."""
+    from rotary_vane.fmu_src.status_shim import compile_shim
+    copy = S.copy_of(c_host_fmu, target)
+    [private] = [p.name for p in (copy / "resources").iterdir() if p.is_dir() and p.name.startswith("rotary_vane_")]
+    tag = f"{MODEL}/{private}"                        # as fmu_src/build.py gives it
+    reason = compile_shim(copy / "binaries" / "linux64" / f"{MODEL}.so", tag, c_host_fmu["guid"], interpreter)
+    assert reason is None, reason
+    return copy
+
+
+def test_the_python_on_path_serves_when_the_recorded_one_is_gone(c_host, c_host_fmu, folder):
+    """The interpreter recorded at build time no longer exists: the first python3 on PATH is asked for its
+    libpython and serves (here a python3 on PATH that runs this test's interpreter); with no python3 on PATH
+    either, NULL and a message that names both places looked at."""
+    gone = {"version": f"{sys.version_info.major}.{sys.version_info.minor}", "executable": "/gone/bin/python",
+            "library": "/gone/lib/libpython.so"}
+    copy = shim_with_recorded_interpreter(c_host_fmu, folder / "recorded interpreter gone", gone)
+    bin_folder = folder / "bin with python3"
+    bin_folder.mkdir(exist_ok=True)
+    python3 = bin_folder / "python3"
+    python3.write_text(f'#!/bin/sh\nexec "{sys.executable}" "$@"\n')
+    python3.chmod(0o755)
+    found = S.c_host_run(c_host, c_host_fmu, S.clean_environment(PATH=f"{bin_folder}:{S.CLEAN_PATH}"),
+                         "--quick-exit", directory=copy, steps=2)
+    assert found.returncode == 0, describe(found)
+    none = S.c_host_run(c_host, c_host_fmu, S.clean_environment(PATH=str(folder / "empty")), "--quick-exit",
+                        directory=copy, steps=2)
+    assert none.returncode == 3, describe(none)
+    [message] = S.parse_c_host(none.stdout)["error_logs"]
+    assert "/gone/bin/python" in message and "no python3 on PATH" in message and "ROTARY_VANE_PYTHON" in message
+
+
+@pytest.fixture(scope="session")
+def python_host(c_host_fmu, folder):
+    return S.python_host_cases(c_host_fmu["fmu"], folder)
+
+
+def test_every_resource_location_form_gives_an_instance_that_steps(python_host):
+    assert python_host["C16"] and all(value == INSTANCE for _, value in python_host["C16"]), python_host
+
+
+@pytest.mark.parametrize("row", ["C17", "C18"])
+def test_a_bad_resource_location_or_guid_gives_null_and_a_message(python_host, row):
+    """NULL, and one message through the logger, with the category of fmi2Error, that quotes what was given."""
+    assert python_host[row] and all(value == NULL for _, value in python_host[row]), python_host[row]
+    for label, messages in python_host[f"messages of {row}"]:
+        assert [(status, category) for status, category, _ in messages] == [(3, "logStatusError")], (label, messages)
+        assert messages[0][2].startswith("fmi2Instantiate: "), (label, messages)
+
+
+def test_status_inquiries_follow_the_state_table(python_host):
+    """fmi2Error before initialization and in the error state (C20); after a step the inquiries pythonfmu can answer
+    are fmi2OK (the last successful time is the end of the step, the slave does not want to terminate) and the
+    others fmi2Discard (C14 and 'no such status'); after fmi2Terminate they are allowed too."""
+    assert len(python_host["C20"]) == 15 and all(status == 3 for _, status in python_host["C20"]), python_host["C20"]
+    assert all(status == 0 for _, status in python_host["allowed"]), python_host["allowed"]
+    assert python_host["last successful time"] == pytest.approx(1e-3) and python_host["terminated"] == 0
+    assert all(status == 2 for _, status in python_host["C14"] + python_host["no such status"])
+
+
+def test_refused_inquiries_and_unsupported_calls_leave_the_state_alone(python_host):
+    """After the refused status inquiries and the unsupported functions (C21: fmi2Error each) the instance is not in
+    the error state: initialization, a step, fmi2Reset and a second run through fmi2Terminate all give fmi2OK."""
+    assert len(python_host["C21"]) == 8 and all(status == 3 for _, status in python_host["C21"]), python_host["C21"]
+    assert python_host["error state"] == [["fmi2DoStep with step size -1", 3]]
+    assert all(status == 0 for _, status in python_host["after C20/C21"]), python_host["after C20/C21"]
+    messages = python_host["state messages"]
+    assert all(category in DECLARED_CATEGORIES for _, category, _ in messages), messages
+    assert any("fmi2CancelStep is not supported" in text for _, _, text in messages), messages
+    assert any("fmi2GetRealStatus is not allowed in the instantiated state" in text for _, _, text in messages)
+
+
+@pytest.fixture(scope="session")
+def fatal(c_host_fmu, folder):
+    return S.fatal_cases(c_host_fmu["fmu"], folder)
+
+
+def test_after_fatal_nothing_reaches_pythonfmu(fatal):
+    """pythonfmu's library (a stub that aborts the process if called after its fmi2Fatal) answers a step with
+    fmi2Fatal: every later call is fmi2Fatal from the shim, and fmi2FreeInstance does not reach the stub either."""
+    assert fatal["before"] == [["fmi2DoStep answered fmi2Discard by pythonfmu", 2],
+                               ["fmi2DoStep answered fmi2Fatal by pythonfmu", 4]]
+    assert len(fatal["C22"]) == 11 and all(status == 4 for _, status in fatal["C22"]), fatal["C22"]
+    assert fatal["freed"] is True
+
+
+def test_pythonfmu_messages_get_declared_categories_and_a_discard_reaches_the_logger(fatal):
+    """With debug logging off: the stub's discard (category "cppfmu") and fatal (no category) reach the logger with
+    logStatusDiscard and logStatusFatal; each later call says the instance was lost and why."""
+    messages = fatal["messages"]
+    assert [m[:2] for m in messages[:2]] == [[2, "logStatusDiscard"], [4, "logStatusFatal"]], messages
+    assert messages[0][2] == "stub: a discarded step" and messages[1][2] == "stub: a Python exception"
+    later = messages[2:]
+    assert len(later) == 11 and all(status == 4 and category == "logStatusFatal" and "the instance was lost" in text
+                                    and "fmi2DoStep returned fmi2Fatal: stub: a Python exception" in text
+                                    for status, category, text in later), later
+
+
+@pytest.mark.slow
+def test_first_step_latency_without_and_with_ld_preload(c_host, c_host_fmu):
+    """The time from the C host's start to the end of its first fmi2DoStep, median of 3, from a clean environment
+    and with the former recipe (LD_PRELOAD of libpython, PYTHONHOME, PYTHONPATH): the shim's own work (choosing and
+    loading libpython) costs less than 0.2 s."""
+    import site
+    import statistics
+    from rotary_vane.fmu_src.status_shim import shared_libpython
+    preload = S.clean_environment(LD_PRELOAD=shared_libpython(), PYTHONHOME=sys.base_prefix,
+                                  PYTHONPATH=os.pathsep.join(site.getsitepackages()))
+    times = {}
+    for label, env in (("clean", S.clean_environment()), ("LD_PRELOAD", preload)):
+        runs = [S.parse_c_host(S.c_host_run(c_host, c_host_fmu, env, "--quick-exit", steps=1).stdout)["first_step"]
+                for _ in range(3)]
+        times[label] = statistics.median(runs)
+    print(f"first-step latency: {times}")
+    assert times["clean"] < times["LD_PRELOAD"] + 0.2, times

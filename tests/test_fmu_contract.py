@@ -1,8 +1,9 @@
 """The FMI 2.0 status contract of the built FMUs: every row of the README's contract table, checked through fmpy.
 
-The README's table (rows C1..C15: a call and situation, the status) is the specification: this file reads it, runs
-each row's situations against the built FMU in host processes (tests/fmu_helpers.py) and checks that every
-situation returns the row's status. It also checks what each row says follows: nothing is set, the model state
+The README's table (rows C1..C26: a call and situation, the status) is the specification: this file reads it, runs
+each row's situations against the built FMU in host processes (tests/fmu_helpers.py; rows C16-C22, which concern
+the FMU's C shim, through tests/fmu_shim_cases.py) and checks that every situation returns the row's status (for
+fmi2Instantiate: an instance or NULL). It also checks what each row says follows: nothing is set, the model state
 after a refused call is byte for byte the state before it, a pickle handed in as a state runs nothing, a discarded
 step can be retried, the error state is left by fmi2SetFMUstate and fmi2Reset; and what a user sees of a bad
 parameter in fmpy.simulate_fmu and in libcosim.
@@ -15,16 +16,23 @@ from pathlib import Path
 import pytest
 
 import fmu_helpers as H
+import fmu_shim_cases as S
 from test_fmu_compressor import script
 
 README = Path(__file__).resolve().parents[1] / "README.md"
-ROW = re.compile(r"^\s*\| (C\d+) \| (.+?) \| (fmi2OK|fmi2Warning|fmi2Discard|fmi2Error) \| (.+?) \|\s*$", re.M)
-STATUS = {"fmi2OK": H.OK, "fmi2Warning": H.WARNING, "fmi2Discard": H.DISCARD, "fmi2Error": H.ERROR}
+ROW = re.compile(r"^\s*\| (C\d+) \| (.+?) \| (fmi2OK|fmi2Warning|fmi2Discard|fmi2Error|fmi2Fatal|an instance|NULL) "
+                 r"\| (.+?) \|\s*$", re.M)
+STATUS = {"fmi2OK": H.OK, "fmi2Warning": H.WARNING, "fmi2Discard": H.DISCARD, "fmi2Error": H.ERROR,
+          "fmi2Fatal": H.FATAL, S.INSTANCE: S.INSTANCE, S.NULL: S.NULL}
 
 
-def contract_rows() -> dict[str, int]:
-    """row -> status, from the README's table."""
+def contract_rows() -> dict[str, int | str]:
+    """row -> status (or what fmi2Instantiate returns), from the README's table."""
     return {row: STATUS[status] for row, _, status, _ in ROW.findall(README.read_text(encoding="utf-8"))}
+
+
+def status_name(status: int | str) -> str:
+    return H.STATUS_NAMES[status] if isinstance(status, int) else status
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +96,7 @@ MISUSE = PRELUDE + """
 host = H.Host($fmu)
 f, vr = host.fmu, {name: v.valueReference for name, v in host.variables.items()}
 
-# C3 and C14 before initialization; each refusal is followed by fmi2Reset (row C9)
+# C3 and C20 before initialization; each refusal is followed by fmi2Reset (row C9)
 for label, call in [
         ("getReal in the instantiated state", lambda: get_reals(f, vr, ["shaft_torque"])[0]),
         ("doStep in the instantiated state", lambda: step(f, 0.0, 1e-3)),
@@ -98,7 +106,7 @@ for label, call in [
                                                     step(f, 0.0, 1e-3))[2])]:
     record("C3", label, call())
     record("C9", f"fmi2Reset after '{label}'", status(f.reset))
-record("C14", "fmi2GetStatus", raw(f, "fmi2GetStatus", 0, byref(c_int())))
+record("C20", "fmi2GetStatus before initialization", raw(f, "fmi2GetStatus", 0, byref(c_int())))
 record("C9", "fmi2Reset after fmi2GetStatus", status(f.reset))
 
 assert host.initialize(**H.OPERATING_POINT) == H.OK
@@ -300,6 +308,63 @@ H.emit(out)
 """
 
 
+SAFE_GLUE = PRELUDE + """
+from test_fmu_fuzz import craft_blob
+host = H.Host($fmu)
+f, vr = host.fmu, {name: v.valueReference for name, v in host.variables.items()}
+
+# C23: crafted state contents with a valid envelope
+assert host.initialize(**H.OPERATING_POINT) == H.OK
+assert step(f, 0.0, 1e-3) == H.OK
+good, good_blob = f.getFMUstate(), blob(f)
+control = ["model", "simulation", "control"]
+for label, edit in [("a malformed start time {'f': []}", ["set", ["clock", "start_time"], {"f": []}]),
+                    ("a clock elapsed of 1e6 s", ["set", ["clock", "elapsed"], [1000000, 1]]),
+                    ("fidelity 'bogus'", ["set", ["model", "parameters", "fidelity"], "bogus"]),
+                    ("initial_rotor_angle = 1e300", ["set", ["model", "parameters", "initial_rotor_angle"], 1e300]),
+                    ("a map_values of 1e6 entries", ["entries", ["model", "map_values"], 1000000]),
+                    ("an integrator step size of 0", ["step", control, 0.0]),
+                    ("NaN in the window", ["nan", ["model", "simulation", "window"], -1])]:
+    data = craft_blob(good_blob, edit)
+    record("C23", f"deSerializeFMUstate of {label}", status(lambda: f.deSerializeFMUstate(data)))
+    record("unchanged", label, blob(f) == good_blob)
+    record("C9", f"setFMUstate after {label}", status(lambda: f.setFMUstate(good)))
+out["C23 logged"] = "\n".join(m for _, _, m in host.messages())
+
+# C24: the work bound, lowered so that a step of 50 ms (about 3500 attempts) exceeds it
+f.reset()
+assert host.initialize(**H.OPERATING_POINT, work_bound=1.0) == H.OK
+record("C15", "a step of 0.1 ms within the work bound", step(f, 0.0, 1e-4))
+before = blob(f)
+record("C24", "a step of 50 ms beyond the work bound", step(f, 1e-4, 5e-2))
+out["C24 unchanged"] = blob(f) == before
+out["C24 message"] = [m for _, _, m in host.messages()][-1]
+
+# C25, C26: stopTime
+f.reset()
+record("C26", "stopTime before startTime", raw(f, "fmi2SetupExperiment", 0, 0.0, 0.0, 1, -1.0))
+f.reset()
+record("C26", "stopTime nan", raw(f, "fmi2SetupExperiment", 0, 0.0, 0.0, 1, math.nan))
+f.reset()
+record("C15", "setupExperiment with stopTime 0.005 s", raw(f, "fmi2SetupExperiment", 0, 0.0, 0.0, 1, 0.005))
+host.set(**H.OPERATING_POINT)
+f.enterInitializationMode()
+f.exitInitializationMode()
+for k in range(5):
+    record("C15", f"doStep to {(k + 1) * 1e-3:g} s, before the stop time", step(f, k * 1e-3, 1e-3))
+record("C25", "doStep from 0.005 s past the stop time", step(f, 5e-3, 1e-3))
+out["C25 message"] = [m for _, _, m in host.messages()][-1]
+host.fmu.freeInstance()
+H.emit(out)
+"""
+
+
+@pytest.fixture(scope="module")
+def safe_glue(fmu, env):
+    run = H.run_host(script(SAFE_GLUE, fmu=fmu), env=env).check()
+    return {**run.result, "stderr": run.stderr}
+
+
 def bounded_parameters(fmu_path: Path) -> list[str]:
     from fmpy import read_model_description
     return [v.name for v in read_model_description(str(fmu_path)).modelVariables
@@ -324,9 +389,23 @@ def refused_for_its_range(name: str, messages: list[str]) -> bool:
                for m in messages)
 
 
-def statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times):
+@pytest.fixture(scope="module")
+def shim_cases(built_fmus, tmp_path_factory) -> dict:
+    """Rows C14 and C16-C22 from the runs of tests/fmu_shim_cases.py (made once per session)."""
+    fmu, folder = built_fmus / "RotaryVaneCompressor.fmu", S.cases_folder(tmp_path_factory)
+    python_host, fatal = S.python_host_cases(fmu, folder), S.fatal_cases(fmu, folder)
+    no_python = S.parse_c_host(S.no_python_run(fmu, folder).stdout)
+    rows = {row: python_host.get(row, []) + fatal.get(row, []) for row in ("C14", "C16", "C17", "C18", "C20", "C21",
+                                                                           "C22")}
+    rows["C19"] = [["C host, ROTARY_VANE_PYTHON naming no interpreter",
+                    S.NULL if no_python["not_ok_calls"] == ["CALL fmi2Instantiate -> NULL"] else S.INSTANCE]]
+    return rows
+
+
+def statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times,
+                    shim_cases, safe_glue):
     """[(situation, status)] of one README row from every run."""
-    found = [tuple(item) for item in misuse.get(row, [])]
+    found = [tuple(item) for item in misuse.get(row, []) + shim_cases.get(row, []) + safe_glue.get(row, [])]
     found += [tuple(item) for item in integration_failure.get(row, []) + no_gas.get(row, [])]
     if row == "C1":     # a bound refused for a relation with another parameter is row C2, not C1
         found += [(f"{model} {case}", status) for model, run in at_bounds.items()
@@ -344,17 +423,45 @@ def statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at
 
 
 @pytest.mark.parametrize("row", sorted(contract_rows(), key=lambda r: int(r[1:])))
-def test_contract_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times):
+def test_contract_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times,
+                      shim_cases, safe_glue):
     """Every situation of the README's row returns the row's status."""
     expected = contract_rows()[row]
-    found = statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times)
+    found = statuses_of_row(row, misuse, bad_parameters, integration_failure, no_gas, at_bounds, large_start_times,
+                            shim_cases, safe_glue)
     assert found, f"no situation of row {row} was run"
-    wrong = [(label, H.STATUS_NAMES[status]) for label, status in found if status != expected]
-    assert not wrong, f"row {row} says {H.STATUS_NAMES[expected]}: {wrong}"
+    wrong = [(label, status_name(status)) for label, status in found if status != expected]
+    assert not wrong, f"row {row} says {status_name(expected)}: {wrong}"
 
 
 def test_the_readme_table_has_the_rows_this_file_runs():
-    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 16)]
+    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 27)]
+
+
+def test_crafted_states_the_work_bound_and_the_stop_time_say_why(safe_glue):
+    """C23: the state is kept and the reason names the field, through the importer's logger and on stderr; C24:
+    the discarded step names the work bound and leaves the state as before; C25: the stop time is named."""
+    assert all(same for _, same in safe_glue["unchanged"]), safe_glue["unchanged"]
+    for reason in ("parameter 'fidelity' = 'bogus' is invalid: allowed one of detailed, periodic_map",
+                   "parameter 'initial_rotor_angle' = 1e+300 is out of range: allowed [-1000, 1000]",
+                   "the clock's elapsed time 1000000.0 s is not the model's time 0.001 s",
+                   "state field 'model.map_values' = ['k0', 'k1', 'k10'] is invalid",
+                   "malformed state node {'f': []}", "state field 'control[step]' = 0.0 s is invalid",
+                   "state field 'model.simulation.window' holds values that are not finite"):
+        assert reason in safe_glue["stderr"], (reason, safe_glue["stderr"][-3000:])
+        assert reason in safe_glue["C23 logged"], (reason, safe_glue["C23 logged"][-3000:])
+    assert safe_glue["C24 unchanged"] is True
+    assert "work bound" in safe_glue["C24 message"] and "state is as before the step" in safe_glue["C24 message"], \
+        safe_glue["C24 message"]
+    assert "past the stopTime = 0.005 s" in safe_glue["C25 message"], safe_glue["C25 message"]
+
+
+def test_a_refusal_at_a_bound_names_the_parameter_that_was_set(at_bounds):
+    """Every bounded parameter of both FMUs set to its min and to its max: a refusal (a relation with a parameter at
+    its default) names the parameter that was set and its value (README row C2)."""
+    wrong = [(model, case, messages) for model, run in at_bounds.items() for case, (status, messages) in run.items()
+             if status != H.OK and not any(f"'{case.split('=')[0]}' = " in m for m in messages)]
+    assert not wrong, wrong
 
 
 def test_a_refused_call_changes_nothing_and_a_state_blob_runs_nothing(misuse, integration_failure):

@@ -1,6 +1,7 @@
 """DriveMotor + RotaryVaneCompressor coupled: libcosim (connections made in Python, an OspSystemStructure.xml, an
 SSP .ssd, and the ECCO adaptive-step algorithm with a speed x torque power bond) against a Gauss-Seidel master
-written here with fmpy's low-level API.
+written here with fmpy's low-level API; and every start value of the shipped system files as libcosim, Ecos and
+fmpy's SSP reader apply it (Ecos's runs of the system: tests/test_fmu_ecos.py).
 
 The system (fmu_src/systems/): the induction motor (defaults: 1.5 kW, 1440 rpm, 4 poles, 50 Hz) integrates the
 shaft with J = J_motor + J_load (J_load = the compressor's rotor inertia, 5.5e-4 kg.m2, set to 0 in the compressor
@@ -15,10 +16,13 @@ import math
 from pathlib import Path
 
 import pytest
+from fmpy import read_model_description
 
 import fmu_helpers
+import system_files
 
 PROJECT = Path(__file__).resolve().parent.parent
+TESTS = Path(__file__).resolve().parent
 RPM = 2.0 * math.pi / 60.0
 STEP, STOP, MARKS = 1e-3, 0.4, (0.24, 0.32, 0.40)
 INERTIA = 4.0e-3 + 5.5e-4                      # motor + compressor rotor [kg.m2], all on the motor's shaft
@@ -232,3 +236,118 @@ def test_ssd_is_valid_ssp(fmus):
         assert {(c.start_element, c.start_connector, c.end_element, c.end_connector) for c in ssd.connections()} \
             == {("motor", "shaft_speed", "compressor", "shaft_speed"),
                 ("compressor", "shaft_torque_mean", "motor", "load_torque")}
+
+
+# every engine applies every start value of the shipped system files ---------------------------------------------
+READ_BACK = r'''
+import gc, json, sys, zipfile
+spec = json.loads(sys.argv[1])
+folder, engine, wanted = spec["folder"], spec["engine"], spec["wanted"]
+values = {}
+if engine.startswith("libcosim"):
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    log_output_level(CosimLogLevel.WARNING)
+    path = f"{folder}/{spec['file']}"
+    execution = CosimExecution.from_ssp_file(path) if path.endswith(".ssd") else \
+        CosimExecution.from_osp_config_file(path)
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    assert execution.simulate_until(round(1e6))           # initialization and one 1 ms step
+    for info in execution.slave_infos():
+        component = info.name.decode()
+        references = {v.name.decode(): v.reference for v in execution.slave_variables(info.index)}
+        values[component] = {}
+        for name, kind in wanted[component].items():
+            read = observer.last_string_values if kind == "str" else observer.last_real_values
+            value = read(info.index, [references[name]])[0]
+            values[component][name] = value.decode() if isinstance(value, bytes) else value
+    del observer, execution                 # before the interpreter exits (libcosim's threads)
+    gc.collect()
+elif engine == "ecos":
+    sys.path.append(spec["tests"])
+    import ecos_host
+    ecospy = ecos_host.load_ecospy()
+    simulation = ecospy.EcosSimulation(ssp_path=folder, step_size=1e-3)
+    assert simulation.init(parameter_set=spec["parameter_set"]), ecospy.EcosLib.get_last_error()
+    for component, names in wanted.items():
+        values[component] = {name: (simulation.get_string if kind == "str" else simulation.get_real)(
+            f"{component}::{name}") for name, kind in names.items()}
+    simulation.terminate()
+    simulation.free()
+else:       # fmpy: its SSP reader lists the bindings of an .ssp of the folder; FMU2Slave applies and reads them
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.ssp.ssd import read_ssd
+    archive = spec["archive"]
+    with zipfile.ZipFile(archive, "w") as ssp:
+        for name in ("SystemStructure.ssd", "DriveMotor.fmu", "RotaryVaneCompressor.fmu"):
+            ssp.write(f"{folder}/{name}", name)
+    ssd = read_ssd(archive)                                 # validates against fmpy's SSP 1.0 schema
+    for component in ssd.system.elements:
+        md = read_model_description(f"{folder}/{component.source}")
+        variables = {v.name: v for v in md.modelVariables}
+        fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(f"{folder}/{component.source}"),
+                        modelIdentifier=md.coSimulation.modelIdentifier, instanceName=component.name)
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        for binding in component.parameterBindings:
+            for parameter_set in binding.parameterValues:
+                for p in parameter_set.parameters:
+                    reference = [variables[p.name].valueReference]
+                    if p.type == "String":
+                        fmu.setString(reference, [p.value])
+                    else:
+                        fmu.setReal(reference, [float(p.value)])
+        fmu.exitInitializationMode()
+        fmu.doStep(0.0, 1e-3)
+        values[component.name] = {name: (fmu.getString if kind == "str" else fmu.getReal)(
+            [variables[name].valueReference])[0] for name, kind in wanted[component.name].items()}
+        values[component.name] = {k: v.decode() if isinstance(v, bytes) else v
+                                  for k, v in values[component.name].items()}
+        fmu.terminate()
+        fmu.freeInstance()
+print("RESULT " + json.dumps(values))
+'''
+
+READ_BACK_ENGINES = {  # test id -> (engine, system file)
+    "libcosim-osp": ("libcosim", "OspSystemStructure.xml"),
+    "libcosim-osp-ecco": ("libcosim", "OspSystemStructure_ecco.xml"),
+    "libcosim-ssp": ("libcosim", "SystemStructure.ssd"),
+    "ecos-ssp": ("ecos", "SystemStructure.ssd"),
+    "fmpy-ssp": ("fmpy", "SystemStructure.ssd"),
+}
+
+
+def file_values(path):
+    return system_files.ssd_parameters(path) if path.suffix == ".ssd" else system_files.osp_initial_values(path)
+
+
+@pytest.mark.parametrize("name", READ_BACK_ENGINES)
+def test_every_engine_applies_every_start_value_of_the_system_file(fmus, tmp_path, name):
+    """The start values the engine applied, read back from it after initialization (libcosim and fmpy: after one
+    step; the compressor's speed input is connected, Ecos passes the step's new speed to it at once) are every value
+    the file gives each component (the reference is the file read with the standard library's XML parser). Each
+    component gets a value other than its FMU's own start value (the motor's initial_speed, the compressor's
+    rotor_inertia and shaft_speed), so a set an engine leaves out shows. Ecos applies only the
+    parameter sets named at initialization: the SSD has one name, passed as Ecos's users pass it (the ecos command
+    line's read-back is in tests/test_fmu_ecos.py)."""
+    engine, file = READ_BACK_ENGINES[name]
+    expected = file_values(fmus / file)
+    names = system_files.ssd_parameter_set_names(fmus / "SystemStructure.ssd")
+    assert len(names) == 1, (f"SystemStructure.ssd names the parameter sets {sorted(names)}: Ecos applies only the "
+                             f"one named at initialization, so every component's set must carry the same name")
+    sources = {"motor": "DriveMotor.fmu", "compressor": "RotaryVaneCompressor.fmu"}
+    for component, values in expected.items():
+        defaults = {v.name: v.start for v in read_model_description(str(fmus / sources[component])).modelVariables}
+        assert any(value != (defaults[key] if isinstance(value, str) else float(defaults[key]))
+                   for key, value in values.items()), \
+            f"{file} gives {component} only its FMU's own start values: the read-back could not tell them applied"
+    wanted = {component: {k: "str" if isinstance(v, str) else "real" for k, v in values.items()}
+              for component, values in expected.items()}
+    result, _ = fmu_helpers.run_json_script(READ_BACK, dict(folder=str(fmus), engine=engine, file=file, wanted=wanted,
+                                                           parameter_set=next(iter(names)), tests=str(TESTS),
+                                                           archive=str(tmp_path / "motor_compressor.ssp")), fmus)
+    assert result == expected

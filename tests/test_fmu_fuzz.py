@@ -6,9 +6,10 @@ file run as a script), many cases per process on one FMU instance with `fmi2Rese
 in parallel. A worker that dies (signal, non-zero exit) or whose instance returned fmi2Fatal is replaced by a new
 one for the remaining cases, so that every case is run and reported.
 
-The cases (seeded, bounded: about 800, well under a minute on 2 cores): bad parameter values and relations, bad
+The cases (seeded, bounded: about 940, about a minute on 2 cores): bad parameter values and relations, bad
 inputs, odd step sizes and communication points, odd call orders, FMU-state misuse, host contract violations
-(wrong types, unknown value references, corrupted state bytes), and random call sequences. Checked: no call returns
+(wrong types, unknown value references, corrupted state bytes), random call sequences, and state blobs with a valid
+envelope and crafted content (every field of the state tree). Checked: no call returns
 fmi2Fatal; no worker process crashes, also not at its teardown (fmi2FreeInstance, unloading, exit); a refused
 parameter, input or step size is named with its value in a message and its step returns fmi2Error (fmi2Discard for
 an input value); the valid steps after a refused input (or, after fmi2SetFMUstate, a refused step size) are fmi2OK.
@@ -202,6 +203,16 @@ class Harness:
             self.blobs[args[0]] = buffer.raw
             self.blob_times[args[0]] = self.state_times.get(args[0], self.time)
             return status, {"bytes": size.value}
+        if name == "craft":                         # a serialized state with its content changed: slot, edit, new
+            source, edit, target = args
+            if source not in self.blobs:
+                return "skipped", f"no serialized state in slot {source!r}"
+            self.blobs[target] = craft_blob(self.blobs[source], edit)
+            self.blob_times[target] = self.blob_times[source]
+            return "no call", {"bytes": len(self.blobs[target])}
+        if name == "same_blobs":                    # are two serialized states byte for byte the same
+            same = self.blobs.get(args[0]) is not None and self.blobs.get(args[0]) == self.blobs.get(args[1])
+            return "no call", {"same": same}
         if name == "deserialize":                   # source: {"hex": ...} or {"blob": slot, "truncate": n}
             source, slot = args
             if "hex" in source:
@@ -236,6 +247,38 @@ class Harness:
 
     def free(self):
         self.fmu.freeInstance()                     # fmi2FreeInstance + unloading the library
+
+
+def craft_blob(blob: bytes, edit) -> bytes:
+    """`blob` (fmu_src/state_format.py) with one edit of its content, its length and CRC-32 recomputed so that the
+    envelope is valid: ["set", path, value] sets the JSON node at `path` (keys of the state tree) to `value` (raw
+    JSON: {"f": "nan"} is a NaN, {"f": []} a malformed node); ["nan", path, index] writes NaN into element `index`
+    of the array at `path`, ["step", path, value] the value into its first element; ["entries", path, n] sets the
+    dict at `path` to n entries k0..k{n-1} = 0.0."""
+    import struct
+    import zlib
+    header, payload = blob[:96], blob[96:]
+    (length,) = struct.unpack_from("<I", payload)
+    description = json.loads(payload[4:4 + length])
+    data = bytearray(payload[4 + length:])
+    kind, path, argument = edit
+    parent, key = None, None
+    node = description
+    for part in path:
+        parent, key = (node["d"], part) if isinstance(node, dict) and "d" in node else (node, part)
+        node = parent[key]
+    if kind == "set":
+        parent[key] = argument
+    elif kind == "nan":             # a negative index counts from the end, as in Python
+        struct.pack_into("<d", data, node["offset"] + 8 * (argument % math.prod(node["shape"])), math.nan)
+    elif kind == "step":
+        struct.pack_into("<d", data, node["offset"], argument)
+    elif kind == "entries":
+        parent[key] = {"d": {f"k{i}": 0.0 for i in range(argument)}}
+    text = json.dumps(description, separators=(",", ":")).encode()
+    body = struct.pack("<I", len(text)) + text + bytes(data)
+    magic, version, _, _, tag = struct.unpack("<10sHQI72s", header)
+    return struct.pack("<10sHQI72s", magic, version, len(body), zlib.crc32(body), tag) + body
 
 
 def worker_main(unzipdir, cases_path, results_path, instance_name):
@@ -568,11 +611,88 @@ def random_sequence_cases(rng, count=60, length=30):
     return cases, {}
 
 
+def _schema_leaves(spec, path=()):
+    """(path, spec) of every field of a state schema (fmu_src/state_schema.py), records descended into."""
+    from rotary_vane.fmu_src import state_schema
+    inner = spec.spec if isinstance(spec, state_schema.Nullable) else spec
+    if isinstance(inner, state_schema.Record):
+        for name, item in inner.fields.items():
+            yield from _schema_leaves(item, (*path, name))
+    if path:
+        yield path, spec
+
+
+CRAFTED_PER_CASE = 8        # crafted blobs tried one after the other on one initialized instance
+
+
+def crafted_state_edits() -> dict:
+    """label -> edit (craft_blob) of a state serialized after 2 steps of the detailed model: a malformed node
+    ({"f": []}) and a value of the wrong type in every field of the state tree (the compressor's schema,
+    fmu_src/compressor.py; the periodic-map run's fields are absent from a detailed state), and the contents of
+    issue 22: an inconsistent clock, NaN / zero / 5e-324 integrator step sizes, a NaN start time,
+    initial_rotor_angle = 1e300, fidelity "bogus", 5 and null, NaN in the window and last-output arrays, a map_values
+    of 1e6 entries."""
+    from rotary_vane.fmu_src import state_schema
+    from rotary_vane.fmu_src.compressor import CompressorSlave
+    from rotary_vane.fmu_src.slave import CLOCK_SCHEMA
+    tree = state_schema.Record({"phase": state_schema.Text(), "clock": CLOCK_SCHEMA,
+                                "failure": state_schema.Nullable(state_schema.Text()),
+                                "model": CompressorSlave.model_schema()})
+    edits = {}
+    for path, spec in _schema_leaves(tree):
+        if path[:2] == ("model", "map_run") and len(path) > 2:
+            continue
+        inner = spec.spec if isinstance(spec, state_schema.Nullable) else spec
+        label = ".".join(path)
+        edits[f"{label} = {{'f': []}}"] = ["set", list(path), {"f": []}]
+        edits[f"{label} of another type"] = ["set", list(path), 5 if isinstance(inner, state_schema.Text) else "x"]
+    clock, control = ["clock"], ["model", "simulation", "control"]
+    edits.update({
+        "clock elapsed [1e6, 1] (the model stays at its time)": ["set", [*clock, "elapsed"], [1000000, 1]],
+        "clock start_time nan": ["set", [*clock, "start_time"], {"f": "nan"}],
+        "clock stop_time before the start time": ["set", [*clock, "stop_time"], -1.0],
+        "initial_rotor_angle = 1e300": ["set", ["model", "parameters", "initial_rotor_angle"], 1e300],
+        "fidelity 'bogus'": ["set", ["model", "parameters", "fidelity"], "bogus"],
+        "fidelity 5": ["set", ["model", "parameters", "fidelity"], 5],
+        "fidelity null": ["set", ["model", "parameters", "fidelity"], None],
+        "lobes = 1000000 (sizes follow the parameters)": ["set", ["model", "parameters", "lobes"], 1000000],
+        "NaN in the window": ["nan", ["model", "simulation", "window"], -1],
+        "NaN in the window's start row": ["nan", ["model", "simulation", "window"], 3],
+        "NaN in the last output row": ["nan", ["model", "simulation", "last_output"], 0],
+        "NaN in the state vector": ["nan", ["model", "simulation", "state"], 0],
+        "map_values of 1e6 entries": ["entries", ["model", "map_values"], 1000000],
+        "simulation time 1e6 s (not the clock's)": ["set", ["model", "simulation", "time"], 1e6],
+        "integrator step size nan": ["nan", control, 0],
+        **{f"integrator step size {value!r}": ["step", control, value] for value in (0.0, 5e-324, -1e-3, 1.0)},
+    })
+    return edits
+
+
+def crafted_state_cases():
+    """The crafted state blobs (crafted_state_edits), CRAFTED_PER_CASE per case: each set into a running instance by
+    fmi2DeSerializeFMUstate, its serialized state compared with the one before, and fmi2SetFMUstate of the saved
+    state to leave the error state; then two steps. Expected for each: fmi2Error, the state byte for byte as
+    before, and the steps after it fmi2OK."""
+    edits = list(crafted_state_edits().items())
+    cases = []
+    for first in range(0, len(edits), CRAFTED_PER_CASE):
+        batch = edits[first:first + CRAFTED_PER_CASE]
+        ops = [("reset",), ("setup", 0.0), ("set", "pressure_model", "ideal_gas_table"), ("enter",), ("exit",),
+               ("run", 2, SMALL_STEP), ("state_get", "g"), ("serialize", "g")]
+        for label, edit in batch:
+            ops += [("craft", "g", edit, "bad"), ("deserialize", {"blob": "bad"}, "x"), ("state_get", "after"),
+                    ("serialize", "after"), ("same_blobs", "g", "after"), ("state_set", "g")]
+        ops += [("run", 2, SMALL_STEP), ("get_outputs",), ("state_free", "g"), ("state_free", "after")]
+        cases.append({"id": f"crafted states: {'; '.join(label for label, _ in batch)}", "group": "crafted states",
+                      "ops": ops})
+    return cases, {}
+
+
 def all_cases():
     rng = random.Random(SEED)
     cases, expect = [], {}
     for make in (lambda: parameter_cases(rng), input_cases, step_cases, order_cases, contract_cases,
-                 lambda: random_sequence_cases(rng)):
+                 lambda: random_sequence_cases(rng), crafted_state_cases):
         more, more_expect = make()
         cases += more
         expect.update(more_expect)
@@ -841,6 +961,30 @@ def test_odd_call_orders_and_state_misuse(fuzz):
 
 def test_random_call_sequences(fuzz):
     _assert_no_fatal_or_crash(_group(fuzz, "random sequences"))
+
+
+def test_crafted_state_contents_are_refused_and_the_state_is_kept(fuzz):
+    """Every crafted state blob (crafted_state_cases): fmi2DeSerializeFMUstate returns fmi2Error, no call returns
+    fmi2Fatal, no process crashes or hangs; the model state after each refusal is byte for byte the one before it;
+    after fmi2SetFMUstate of the saved state the next steps are fmi2OK, with the same outputs in every case (as
+    without the bad calls: each case steps the same saved state)."""
+    rows = _group(fuzz, "crafted states")
+    _assert_no_fatal_or_crash(rows)
+    problems, outputs, refused = [], {}, 0
+    for case, _, result in rows:
+        record = result["record"]
+        refusals = [op["status"] for op in record if op["op"][0] == "deserialize"]
+        kept = [op["detail"]["same"] for op in record if op["op"][0] == "same_blobs"]
+        runs = [op["status"] for op in record if op["op"][0] == "run"]
+        if set(refusals) != {ERROR} or not all(kept) or len(kept) != len(refusals) or runs != [OK, OK]:
+            problems.append(f"{case['id']}: deserialize {refusals}, state kept {kept}, runs {runs}")
+        refused += refusals.count(ERROR)
+        final = [op["detail"] for op in record if op["op"][0] == "get_outputs"][-1]
+        outputs.setdefault(json.dumps(final, sort_keys=True), []).append(case["id"])
+    assert not problems, "\n".join(problems)
+    assert refused == len(crafted_state_edits())
+    assert len(outputs) == 1, f"the steps after the rollback differ between cases: {list(outputs.values())[:3]}"
+    print(f"\ncrafted states: {refused} blobs in {len(rows)} cases, each fmi2Error with the state kept")
 
 
 NON_UTF8 = "setString with bytes that are not UTF-8"

@@ -199,3 +199,136 @@ def test_an_unreadable_stamp_is_refused_with_the_reason(tmp_path):
     assert "stamp.json is unusable (FileNotFoundError" in compile_cache.shipped_kernels(tmp_path, DIGEST)[1]
     (tmp_path / compile_cache.SHIPPED_FOLDER / compile_cache.STAMP_FILE).write_text("{not json")
     assert "stamp.json is unusable (JSONDecodeError" in compile_cache.shipped_kernels(tmp_path, DIGEST)[1]
+
+
+# the bundle's folder as hosts spell it, and two FMUs of this project in one process ----------------------------
+RESOURCE_FORMS = """
+import os, pathlib, sys
+from ctypes import byref
+from numba.core import event
+import fmu_helpers as H
+from fmpy import calloc, free, read_model_description
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                       fmi2CallbackLoggerTYPE, fmi2CoSimulation)
+from fmpy.logging import addLoggerProxy
+messages = []
+logger = fmi2CallbackLoggerTYPE(lambda env, name, status, category, text: messages.append([status, text.decode()]))
+callbacks = fmi2CallbackFunctions()
+callbacks.logger = logger
+callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+addLoggerProxy(byref(callbacks))
+folder = $folder
+description = read_model_description(folder)
+fmu = FMU2Slave(guid=description.guid, unzipDirectory=folder, modelIdentifier=H.MODEL, instanceName="compressor")
+fmu.callbacks = callbacks
+with event.install_recorder("numba:compile") as recorder:
+    fmu.component = fmu.fmi2Instantiate(b"compressor", fmi2CoSimulation, description.guid.encode(), $uri.encode(),
+                                        byref(callbacks), 0, 1)
+    assert fmu.component, messages
+    fmu.setupExperiment(startTime=0.0)
+    for name, value in H.OPERATING_POINT.items():
+        variable = next(v for v in description.modelVariables if v.name == name)
+        if variable.type == "Real":
+            fmu.setReal([variable.valueReference], [value])
+        else:
+            fmu.setString([variable.valueReference], [value])
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    for k in range(45):
+        fmu.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+compiled = sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in recorder.buffer if e.is_start})
+bundle = next(name for name in sys.modules if name.startswith("rotary_vane_") and "." not in name)
+H.emit({"compiled": compiled, "messages": messages, "bundle_file": sys.modules[bundle].__file__})
+fmu.terminate()
+fmu.freeInstance()
+"""
+
+
+def fresh_caches(folder: Path) -> tuple[dict, dict]:
+    caches = {name: folder / name for name in ("rotary_vane_cache", "xdg_cache", "numba_cache_dir")}
+    env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(caches["rotary_vane_cache"])},
+                             XDG_CACHE_HOME=str(caches["xdg_cache"]), NUMBA_CACHE_DIR=str(caches["numba_cache_dir"]))
+    return caches, env
+
+
+def files_in(*folders: Path) -> set[str]:
+    """Every file under `folders` but Python's own bytecode (*.pyc; numba's cache files are *.nbi and *.nbc)."""
+    return {str(path) for folder in folders if folder.exists() for path in folder.rglob("*")
+            if path.is_file() and path.suffix != ".pyc"}
+
+
+@pytest.mark.parametrize("form", ["file:////abs (Ecos)", "a symbolic link to the folder"])
+def test_the_shipped_kernels_are_found_whatever_path_the_host_gives(fmu, tmp_path, form):
+    """thermo/compile_cache.py compares the bundle's folder with realpath: a resource location of the form
+    `file:////tmp/...` (the path `//tmp/...`) or a folder reached through a symbolic link loads the shipped kernels:
+    nothing is compiled, nothing written into any cache or the unpack folder, no miss is logged."""
+    unpacked = tmp_path / "unpacked"
+    with zipfile.ZipFile(fmu) as archive:
+        archive.extractall(unpacked)
+    if form.startswith("file"):          # as Ecos's FMI loader hands it over: "file:///" + an absolute path
+        folder, uri = str(unpacked), f"file:///{unpacked}/resources"
+    else:
+        (tmp_path / "link").symlink_to(unpacked, target_is_directory=True)
+        folder, uri = str(tmp_path / "link"), (tmp_path / "link" / "resources").as_uri()
+    caches, env = fresh_caches(tmp_path)
+    unpacked_files = files_in(unpacked)
+    out = H.run_host(Template(RESOURCE_FORMS).substitute(folder=repr(folder), uri=repr(uri)), env=env).check().result
+    assert out["compiled"] == [], out
+    assert out["messages"] == [], out["messages"]
+    assert files_in(unpacked, *caches.values()) == unpacked_files, "files were written"
+
+
+TWO_FMUS = """
+import shutil, sys
+import fmu_helpers as H
+def start(model, host):
+    values = H.OPERATING_POINT if model == H.MODEL else {"load_torque": 2.5}
+    assert host.initialize(**values) == H.OK, host.messages()
+    host.run(0.0, 1e-3, 5)
+
+first = H.Host($first, unzipdir=$first_folder)
+start($first_model, first)
+shutil.rmtree($first_folder)                       # as fmpy's simulate_fmu does after its run
+second = H.Host($second, unzipdir=$second_folder)
+start($second_model, second)
+hosts = {$first_model: first, $second_model: second}
+for host in hosts.values():
+    host.run(5e-3, 1e-3, 5)
+bundles = {name: module.__file__ for name, module in sys.modules.items()
+           if name.startswith("rotary_vane_") and getattr(module, "__file__", None)}
+H.emit({"bundles": bundles, "messages": {model: host.messages() for model, host in hosts.items()}})
+for host in hosts.values():
+    host.close()
+"""
+
+
+def bundle_of(module: str) -> str:
+    """The private package a module of an FMU belongs to (its entry module: <package>_entry)."""
+    return module.split(".")[0].removesuffix("_entry")
+
+
+@pytest.mark.parametrize("order", [("DriveMotor", H.MODEL), (H.MODEL, "DriveMotor")])
+def test_two_fmus_of_this_project_in_one_process_each_import_their_own_bundle(built_fmus, tmp_path, order):
+    """The motor and the compressor in one host process, the first one instantiated and run, its folder deleted
+    (as fmpy's simulate_fmu does after its run), then the second one instantiated; both run on. Each FMU's modules
+    come from its own folder (its own private package name, fmu_src/build.py), and nothing is written anywhere
+    (the deleted folder stays deleted: numba does not re-create it to cache kernels there)."""
+    folders = {model: tmp_path / model for model in order}
+    for model, folder in folders.items():
+        with zipfile.ZipFile(built_fmus / f"{model}.fmu") as archive:
+            archive.extractall(folder)
+    caches, env = fresh_caches(tmp_path)
+    first, second = order
+    kept = files_in(folders[second])            # the first folder is deleted
+    out = H.run_host(Template(TWO_FMUS).substitute(
+        first=repr(str(built_fmus / f"{first}.fmu")), first_folder=repr(str(folders[first])),
+        second=repr(str(built_fmus / f"{second}.fmu")), second_folder=repr(str(folders[second])),
+        first_model=repr(first), second_model=repr(second)), env=env).check().result
+    assert out["messages"] == {first: [], second: []}, out["messages"]
+    for model, folder in folders.items():
+        own = {name: path for name, path in out["bundles"].items() if bundle_of(name).endswith(f"_{model}")}
+        assert own and all(path.startswith(str(folder) + "/") for path in own.values()), (model, own)
+    assert all(bundle_of(name).endswith(order) for name in out["bundles"]), sorted(out["bundles"])
+    assert not folders[first].exists(), "the deleted folder of the first FMU was re-created"
+    assert files_in(*folders.values(), *caches.values()) == kept, "files were written"

@@ -9,6 +9,7 @@ import pytest
 from rotary_vane.mechanics import (CompressorParameters, IntegrationError, Simulation, constant_speed, cycloidal_ramp,
                        linear_ramp)
 from rotary_vane.mechanics.performance import revolutions
+from rotary_vane.mechanics.regions import REGION_COUNT
 from rotary_vane.mechanics.speed import RPM
 
 REVOLUTION = 0.04          # s at 1500 rpm
@@ -156,7 +157,7 @@ def history_revolution(simulation, index):
     dwell = np.zeros(64)
     np.add.at(dwell, h["contact_mode"][first + 1:last + 1].astype(int), np.diff(time[window]))
     return dict(start_time=time[first], input_power=(h["work_in"][last] - h["work_in"][first]) / duration,
-                max_normal_force=tuple(float(np.max(h[f"normal_force_{k}"][window])) for k in range(1, 7)),
+                max_normal_force=tuple(float(np.max(h[f"normal_force_{k}"][window])) for k in range(1, REGION_COUNT + 1)),
                 distinct_modes=tuple(int(mask) for mask in np.flatnonzero(dwell >= simulation.params.mode_dwell_time)))
 
 

@@ -136,6 +136,17 @@ def shipped_kernels_refusal() -> str | None:
     return _refusal
 
 
+_misses: list[str] = []
+
+
+def shipped_kernel_misses() -> list[str]:
+    """The kernels looked up among usable shipped kernels and not found there (numba then loads them from, or
+    compiles them into, the user's cache folder) since the last call: each miss is returned once."""
+    misses = _misses[:]
+    del _misses[:len(misses)]
+    return misses
+
+
 class ProjectSourceLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
     """Numba cache locator for the functions of the registered package folders (see the module docstring)."""
 
@@ -146,7 +157,7 @@ class ProjectSourceLocator(caching._SourceFileBackedLocatorMixin, caching._Cache
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
         package_dir = self._package_of(py_file)
-        relative = os.path.relpath(os.path.dirname(os.path.abspath(py_file)), package_dir)
+        relative = os.path.relpath(os.path.dirname(os.path.realpath(py_file)), package_dir)
         self._cache_path = os.path.normpath(os.path.join(self.package_caches[package_dir], relative))
         shipped = self.package_shipped.get(package_dir)
         self.shipped = None if shipped is None else shipped._replace(
@@ -154,7 +165,10 @@ class ProjectSourceLocator(caching._SourceFileBackedLocatorMixin, caching._Cache
 
     @classmethod
     def _package_of(cls, py_file):
-        path = os.path.abspath(py_file)
+        """The registered package folder `py_file` lies in, or None; both are compared after os.path.realpath: a
+        host may hand the FMU its folder as `//tmp/...` (Ecos: `file:///` + `/tmp/...`) or through a symbolic link,
+        and a folder that matched only by spelling would send numba to compile into the unpack folder."""
+        path = os.path.realpath(py_file)
         for package_dir in cls.package_caches:
             if path.startswith(package_dir + os.sep):
                 return package_dir
@@ -189,6 +203,8 @@ class KernelCache(caching.FunctionCache):
             data = index.load((signature, target, code))
             if data is not None:
                 return self._impl.rebuild(target_context, data)
+            _misses.append(f"the kernel {self._py_func.__qualname__}{signature} is not among the kernels shipped in "
+                           f"{os.path.dirname(index._index_path)}")
         return super()._load_overload(sig, target_context)
 
     def files(self) -> list[Path]:
@@ -202,7 +218,7 @@ def install(package_dir: str | Path) -> None:
     """Cache the kernels defined under `package_dir` by source content, reading the kernels shipped with them first
     if they can be used here (idempotent)."""
     global _refusal
-    package_dir = Path(package_dir).resolve()
+    package_dir = Path(os.path.realpath(package_dir))
     digest = source_hash(package_dir.parent)
     ProjectSourceLocator.package_caches[str(package_dir)] = str(cache_folder(package_dir.parent, digest)
                                                                 / package_dir.name)

@@ -181,6 +181,15 @@ class Fluid:
         self._update(self._state, CP.QT_INPUTS, 1.0, temperature, f"T={temperature!r} K on the dew line")
         return self._state
 
+    def saturated_state(self, temperature, quality):
+        """CoolProp's AbstractState of the saturated liquid (quality 0) or vapour (1) at T_triple <= T < T_crit, for
+        saturation-line derivatives (thermo.saturation); valid until the next call."""
+        CP = coolprop()
+        temperature = self._check_subcritical(temperature)
+        self._update(self._state, CP.QT_INPUTS, float(quality), temperature,
+                     f"T={temperature!r} K, vapour quality {quality!r}")
+        return self._state
+
     def dew_pressure(self, temperature):
         """Saturated-vapour pressure p_dew(T) [Pa] for T_triple <= T < T_crit."""
         return self._dew_point(temperature).p()

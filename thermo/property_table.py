@@ -18,7 +18,7 @@ df/dT over x +- 1e-4, truncation error ~1e-9 relative). Inside a cell with local
 The interpolant is C^1 with an O(step^4) error and needs only the four corner nodes (16 numbers per property), so an
 evaluation is one logarithm and about 100 multiply-adds. ln rho: the gas pressure is nearly proportional to rho, so
 a uniform grid in ln rho has the same relative resolution in the re-expanded and in the over-compressed chamber.
-Grid: 160 x 160 by default (3.3 MB, under 1 s to build). Measured against HEOS beyond the 1 K margin
+Grid: 160 x 160 by default (3.4 MB with the saturation line, under 1 s to build). Measured against HEOS beyond the 1 K margin
 (benchmarks/bench_properties.py): R134a, Air, R410A, R1234yf, R290 p and h within 1e-8, c_v and (dp/dT)_rho
 within 2e-7; CO2 (3.5 -> 10 MPa) p and h within 1e-7, c_v about 1e-5 and (dp/dT)_rho 4e-6 next to the critical
 point. At 96 x 96 R134a is still at 3e-8; the finer default is for the near-critical cells of fluids such as CO2
@@ -37,16 +37,30 @@ x_lim is tabulated on a T grid 8 times finer than the table's, each cell holding
 values (x_lim increases with T), so an accepted state is never closer to the dome than the margin; the price is
 that states up to about one dome cell (the T range / 1272, 0.17 K for R134a) beyond the margin may be refused too.
 
+Two-phase dome (docs/model.md §7.3.1; off by default): a table with `two_phase` set (`with_two_phase`,
+`property_table_for(..., two_phase=True)`) takes a state beyond the dew line, rho > rho_v(T) with T on the
+accepted part of its saturation line (thermo.saturation, built with every table), as a homogeneous equilibrium
+mixture: p = p_sat(T), h = h_l + x (h_v - h_l), the mixture's c_v at constant volume, (dp/dT)_rho = dp_sat/dT and
+(dp/drho)_T = 0, with p_sat and h_v taken from the gas branch at the dew point (T, rho_v(T)) so that p and h are
+continuous across the dew line while their derivatives jump (the kink is not interpolated over: the gas table
+serves rho <= rho_v(T), the 1-D saturation table the rest). The superheat margin does not apply there; above the
+saturation line's end (a few kelvin below T_crit) the margin rule does. `table_quality` gives the vapour quality.
+
 Status codes (the four values are NaN whenever status != 0; `describe_status` turns a code into a sentence):
-    STATUS_OK = 0
+    STATUS_OK = 0                       a gas state, or an equilibrium mixture of a two-phase table (quality < 1)
     STATUS_INVALID_STATE = 1            T or rho is not a positive number (NaN, 0, negative)
     STATUS_TEMPERATURE_BELOW_TABLE = 2, STATUS_TEMPERATURE_ABOVE_TABLE = 3
-    STATUS_DENSITY_BELOW_TABLE = 4, STATUS_DENSITY_ABOVE_TABLE = 5
-    STATUS_NEAR_SATURATION = 6          inside the two-phase dome or within the superheat margin of it
-    STATUS_INACCURATE_CELL = 7          in a cell that failed the build check (near the critical point)
+    STATUS_DENSITY_BELOW_TABLE = 4, STATUS_DENSITY_ABOVE_TABLE = 5   (also: a mixture whose dew point is below the
+                                        table's density range)
+    STATUS_NEAR_SATURATION = 6          inside the two-phase dome or within the superheat margin of it (without
+                                        two_phase, or above the end of the saturation line)
+    STATUS_INACCURATE_CELL = 7          in a cell that failed the build check (near the critical point); for a
+                                        mixture, the cell of its dew point
+    STATUS_LIQUID = 9                   two_phase: denser than the saturated liquid (8 is the nozzle table's)
 The checks run in this order; the first failing one is reported.
 
-Tables are cached on disk per fluid, envelope, grid and CoolProp version (`property_table_for`, thermo.disk_cache).
+Tables are cached on disk per fluid, envelope, grid and CoolProp version (`property_table_for`, thermo.disk_cache);
+the two-phase flag is not part of the file. One table per fluid over its whole input range: thermo.fluid_envelope.
 """
 from __future__ import annotations
 
@@ -59,8 +73,10 @@ import numpy as np
 from .disk_cache import cache_path, load_or_build
 from .fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point, coolprop, coolprop_version
 from .kernel import kernel
+from .saturation import (DEFAULT_SATURATION_STEP, SATURATION_QUANTITIES, SATURATION_TOLERANCE, VAPOUR_VOLUME,
+                         build_saturation_line, mixture_state, saturation_quantity)
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3                 # 3: the saturation line and the two-phase flag
 DEFAULT_TEMPERATURE_NODES = 160
 DEFAULT_LOG_DENSITY_NODES = 160
 DOME_REFINEMENT = 8                # dome-limit cells per table cell in T
@@ -83,6 +99,7 @@ STATUS_DENSITY_BELOW_TABLE = 4
 STATUS_DENSITY_ABOVE_TABLE = 5
 STATUS_NEAR_SATURATION = 6
 STATUS_INACCURATE_CELL = 7
+STATUS_LIQUID = 9                  # 8 is the nozzle table's STATUS_THROAT_NEAR_SATURATION
 
 
 class Envelope(NamedTuple):
@@ -109,6 +126,12 @@ class PropertyTable(NamedTuple):
     ideal_gas_exponent: np.ndarray         # (n_T,): k = c_p0/(c_p0 - R) at the T nodes (docs/model.md §7.4)
     superheat_margin: float                # K
     critical_temperature: float            # K
+    # the dome (docs/model.md §7.3.1, thermo.saturation); defaults: a table without a saturation line
+    two_phase: float = 0.0                 # 1.0: states inside the dome are equilibrium mixtures (module docstring)
+    saturation_temperature_min: float = 0.0      # K, first saturation node
+    saturation_temperature_max: float = 0.0      # K, end of the accepted saturation line
+    inverse_saturation_step: float = 1.0   # 1/K
+    saturation_nodes: np.ndarray = np.zeros((2, len(SATURATION_QUANTITIES), 2))   # thermo.saturation.SaturationLine
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -116,50 +139,73 @@ class PropertyTable(NamedTuple):
 
 TABLE_SCALARS = ("temperature_min", "temperature_max", "inverse_temperature_step", "log_density_min",
                  "log_density_max", "inverse_log_density_step", "inverse_dome_step", "superheat_margin",
-                 "critical_temperature")
+                 "critical_temperature", "two_phase", "saturation_temperature_min", "saturation_temperature_max",
+                 "inverse_saturation_step")
 
 
 def table_arrays(table: PropertyTable) -> tuple:
-    """The table as plain arrays (scalars, nodes, dome limit, accurate cells, ideal-gas exponent): what the time
-    loop takes across the Python -> numba boundary, where a named tuple costs microseconds per call to unbox."""
+    """The table as plain arrays (scalars, nodes, dome limit, accurate cells, ideal-gas exponent, saturation
+    nodes): what the time loop takes across the Python -> numba boundary, where a named tuple costs microseconds
+    per call to unbox."""
     return (np.array([getattr(table, name) for name in TABLE_SCALARS]), table.nodes, table.dome_log_density_limit,
-            table.accurate_cell, table.ideal_gas_exponent)
+            table.accurate_cell, table.ideal_gas_exponent, table.saturation_nodes)
 
 
 @kernel(allocates=True)
-def table_from_arrays(scalars, nodes, dome_log_density_limit, accurate_cell, ideal_gas_exponent):
+def table_from_arrays(scalars, nodes, dome_log_density_limit, accurate_cell, ideal_gas_exponent, saturation_nodes):
     """The PropertyTable of `table_arrays`' output, inside compiled code."""
     return PropertyTable(scalars[0], scalars[1], scalars[2], scalars[3], scalars[4], scalars[5], nodes, scalars[6],
-                         dome_log_density_limit, accurate_cell, ideal_gas_exponent, scalars[7], scalars[8])
+                         dome_log_density_limit, accurate_cell, ideal_gas_exponent, scalars[7], scalars[8],
+                         scalars[9], scalars[10], scalars[11], scalars[12], saturation_nodes)
 
+
+@kernel
+def _dew_volume(temperature, table):
+    """v_v(T) [m^3/kg] where the dome branch applies (two-phase table, T on the accepted saturation line), else 0."""
+    if not (table.two_phase != 0.0 and table.saturation_temperature_min <= temperature
+            and temperature < table.saturation_temperature_max):
+        return 0.0
+    return saturation_quantity(VAPOUR_VOLUME, temperature, table.saturation_temperature_min,
+                               table.inverse_saturation_step, table.saturation_nodes)[0]
 
 
 @kernel
 def _locate(temperature, density, table):
-    """(status, i, j, t, s): the cell (i, j) holding (T, ln rho) and the local coordinates t, s in [0, 1]."""
+    """(status, i, j, t, s, dew volume): the cell (i, j) holding (T, ln rho) and the local coordinates t, s in
+    [0, 1]. For a state beyond the dew line that the dome branch takes (dew volume v_v > 0), the cell and
+    coordinates are those of the dew point (T, 1/v_v), where the mixture is anchored on the gas branch."""
     nodes = table.nodes
     if not (temperature > 0.0 and density > 0.0):
-        return STATUS_INVALID_STATE, 0, 0, 0.0, 0.0
+        return STATUS_INVALID_STATE, 0, 0, 0.0, 0.0, 0.0
     if temperature < table.temperature_min:
-        return STATUS_TEMPERATURE_BELOW_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_TEMPERATURE_BELOW_TABLE, 0, 0, 0.0, 0.0, 0.0
     if temperature > table.temperature_max:
-        return STATUS_TEMPERATURE_ABOVE_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_TEMPERATURE_ABOVE_TABLE, 0, 0, 0.0, 0.0, 0.0
     log_density = math.log(density)
     if log_density < table.log_density_min:
-        return STATUS_DENSITY_BELOW_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_DENSITY_BELOW_TABLE, 0, 0, 0.0, 0.0, 0.0
     if log_density > table.log_density_max:
-        return STATUS_DENSITY_ABOVE_TABLE, 0, 0, 0.0, 0.0
+        return STATUS_DENSITY_ABOVE_TABLE, 0, 0, 0.0, 0.0, 0.0
+    dew_volume = _dew_volume(temperature, table)
+    if dew_volume > 0.0:
+        if density * dew_volume > 1.0:
+            log_density = -math.log(dew_volume)          # inside the dome: the dew point's cell
+            if log_density < table.log_density_min:      # the envelope misses the dew point at this T
+                return STATUS_DENSITY_BELOW_TABLE, 0, 0, 0.0, 0.0, 0.0
+        else:
+            dew_volume = 0.0                             # on the gas side of the dew line: the gas branch
+    else:
+        limits = table.dome_log_density_limit
+        if log_density > limits[min(int((temperature - table.temperature_min) * table.inverse_dome_step),
+                                    limits.size - 1)]:
+            return STATUS_NEAR_SATURATION, 0, 0, 0.0, 0.0, 0.0
     u = (temperature - table.temperature_min) * table.inverse_temperature_step
     v = (log_density - table.log_density_min) * table.inverse_log_density_step
-    limits = table.dome_log_density_limit
-    if log_density > limits[min(int((temperature - table.temperature_min) * table.inverse_dome_step),
-                                limits.size - 1)]:
-        return STATUS_NEAR_SATURATION, 0, 0, 0.0, 0.0
     i = min(int(u), nodes.shape[0] - 2)
-    j = min(int(v), nodes.shape[1] - 2)
+    j = min(max(int(v), 0), nodes.shape[1] - 2)
     if not table.accurate_cell[i, j]:
-        return STATUS_INACCURATE_CELL, 0, 0, 0.0, 0.0
-    return STATUS_OK, i, j, u - i, v - j
+        return STATUS_INACCURATE_CELL, 0, 0, 0.0, 0.0, 0.0
+    return STATUS_OK, i, j, u - i, v - j, dew_volume
 
 
 @kernel
@@ -207,9 +253,9 @@ def _interpolate(nodes, i, j, t, s):
 
 @kernel
 def table_status(temperature, density, table):
-    """Status code of (T [K], rho [kg/m^3]) in `table` (0: inside the envelope, outside the dome's margin, in a
-    cell that passed its accuracy check)."""
-    return _locate(temperature, density, table)[0]
+    """Status code of (T [K], rho [kg/m^3]) in `table` (0: inside the envelope, outside the dome's margin or, for a
+    two-phase table, an equilibrium mixture or gas; in a cell that passed its accuracy check)."""
+    return table_state(temperature, density, table).status
 
 
 @kernel
@@ -233,14 +279,38 @@ class FluidState(NamedTuple):
 
 
 @kernel
-def table_state(temperature, density, table):
-    """The FluidState at (T [K], rho [kg/m^3]) by bicubic Hermite interpolation in (T, ln rho)."""
-    status, i, j, t, s = _locate(temperature, density, table)
+def _state_and_quality(temperature, density, table):
+    """(FluidState, vapour quality) at (T, rho): the gas branch (quality 1) or, beyond the dew line of a two-phase
+    table, the equilibrium mixture anchored at the dew point (module docstring, thermo.saturation)."""
+    status, i, j, t, s, dew_volume = _locate(temperature, density, table)
     pressure, enthalpy, heat_capacity, pressure_derivative, slope = _interpolate(table.nodes, i, j, t, s)
     density_derivative = slope * table.inverse_log_density_step / density
+    quality = 1.0
+    if dew_volume > 0.0:          # pressure, enthalpy: the gas branch's p_sat and h_v at the dew point
+        quality, liquid_enthalpy, _, heat_capacity, pressure_derivative = mixture_state(
+            temperature, 1.0 / density, table.saturation_temperature_min, table.inverse_saturation_step,
+            table.saturation_nodes)
+        enthalpy = liquid_enthalpy + quality * (enthalpy - liquid_enthalpy)
+        density_derivative = 0.0
+        if not quality >= 0.0:
+            status = STATUS_LIQUID
     if status != STATUS_OK:       # one exit: an early return costs about twice the whole evaluation in numba
-        pressure = enthalpy = heat_capacity = pressure_derivative = density_derivative = np.nan
-    return FluidState(pressure, enthalpy, heat_capacity, pressure_derivative, density_derivative, status)
+        pressure = enthalpy = heat_capacity = pressure_derivative = density_derivative = quality = np.nan
+    return FluidState(pressure, enthalpy, heat_capacity, pressure_derivative, density_derivative, status), quality
+
+
+@kernel
+def table_state(temperature, density, table):
+    """The FluidState at (T [K], rho [kg/m^3]) by bicubic Hermite interpolation in (T, ln rho), or the equilibrium
+    mixture inside the dome of a two-phase table (module docstring)."""
+    return _state_and_quality(temperature, density, table)[0]
+
+
+@kernel
+def table_quality(temperature, density, table):
+    """Vapour mass fraction x at (T [K], rho [kg/m^3]): in [0, 1) inside the dome of a two-phase table, 1 for any
+    single-phase gas state (superheated or supercritical), NaN if the status is not 0."""
+    return _state_and_quality(temperature, density, table)[1]
 
 
 @kernel
@@ -394,6 +464,7 @@ def build_property_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEF
     dome_cells = DOME_REFINEMENT * (temperature_nodes - 1)
     dome_temperatures = np.linspace(envelope.temperature_min, envelope.temperature_max, dome_cells + 1)
     limits = np.array([dome_log_density_limit(fluid, t, envelope.superheat_margin) for t in dome_temperatures])
+    saturation = build_saturation_line(fluid, envelope.temperature_min, envelope.temperature_max)
     return PropertyTable(
         temperature_min=float(temperatures[0]), temperature_max=float(temperatures[-1]),
         inverse_temperature_step=float(1.0 / temperature_step),
@@ -405,7 +476,16 @@ def build_property_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEF
         accurate_cell=accurate_cell,
         ideal_gas_exponent=np.array([fluid.ideal_gas_exponent(t) for t in temperatures]),
         superheat_margin=envelope.superheat_margin,
-        critical_temperature=fluid.critical_temperature)
+        critical_temperature=fluid.critical_temperature,
+        two_phase=0.0, saturation_temperature_min=saturation.temperature_min,
+        saturation_temperature_max=saturation.temperature_max,
+        inverse_saturation_step=saturation.inverse_temperature_step, saturation_nodes=saturation.nodes)
+
+
+def with_two_phase(table: PropertyTable, two_phase: bool) -> PropertyTable:
+    """The same table with the dome branch on (states beyond the dew line are equilibrium mixtures, STATUS_OK) or
+    off (STATUS_NEAR_SATURATION within the superheat margin of the dome, as before: the default)."""
+    return table._replace(two_phase=1.0 if two_phase else 0.0)
 
 
 def table_envelope(table: PropertyTable) -> Envelope:
@@ -456,7 +536,8 @@ def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_de
                      "envelope " + " ".join(repr(float(v)) for v in envelope),
                      f"nodes {temperature_nodes}x{log_density_nodes}", f"coolprop {coolprop_version()}",
                      f"dome refinement {DOME_REFINEMENT}", f"cross step {CROSS_DERIVATIVE_STEP!r}",
-                     f"cell tolerance {CELL_TOLERANCE!r}"])
+                     f"cell tolerance {CELL_TOLERANCE!r}", f"saturation step {DEFAULT_SATURATION_STEP!r}",
+                     f"saturation tolerance {SATURATION_TOLERANCE!r}"])
 
 
 def property_table_path(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
@@ -477,14 +558,18 @@ def _load(path: Path, key: str, temperature_nodes, log_density_nodes) -> Propert
     if (table.nodes.shape != (temperature_nodes, log_density_nodes, 4, 4)
             or table.accurate_cell.shape != (temperature_nodes - 1, log_density_nodes - 1)
             or table.ideal_gas_exponent.shape != (temperature_nodes,)
-            or table.dome_log_density_limit.shape != (DOME_REFINEMENT * (temperature_nodes - 1),)):
+            or table.dome_log_density_limit.shape != (DOME_REFINEMENT * (temperature_nodes - 1),)
+            or table.saturation_nodes.ndim != 3 or table.saturation_nodes.shape[0] < 2
+            or table.saturation_nodes.shape[1:] != (len(SATURATION_QUANTITIES), 2)):
         raise ValueError("array shapes do not match the key")
     return table
 
 
 def property_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
-                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None) -> PropertyTable:
-    """The table of `fluid` over `envelope`, loaded from the disk cache or built from HEOS and cached.
+                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, cache_dir=None,
+                       two_phase=False) -> PropertyTable:
+    """The table of `fluid` over `envelope`, loaded from the disk cache or built from HEOS and cached; with
+    `two_phase`, states beyond the dew line are equilibrium mixtures (`with_two_phase`; the cached file is the same).
 
     `fluid`: a Fluid, or anything naming one by its canonical `coolprop_name` (an OperatingPoint): the Fluid, and
     with it CoolProp, is then made only if the table must be built. Cache folder: `cache_dir`, else
@@ -496,11 +581,12 @@ def property_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMP
     log_density_nodes = _check_count("log_density_nodes", log_density_nodes)
     path = property_table_path(fluid, envelope, temperature_nodes, log_density_nodes, cache_dir)
     key = _cache_key(fluid.coolprop_name, envelope, temperature_nodes, log_density_nodes)
-    return load_or_build(
+    table = load_or_build(
         path, lambda stored: _load(stored, key, temperature_nodes, log_density_nodes),
         lambda: build_property_table(fluid if isinstance(fluid, Fluid) else Fluid(fluid.coolprop_name), envelope,
                                      temperature_nodes, log_density_nodes),
         lambda stream, table: np.savez(stream, key=np.array(key), **table._asdict()), "property table")
+    return with_two_phase(table, two_phase)
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -517,6 +603,9 @@ def envelope_status_text(status, where, envelope, table_name, user, fluid, tempe
         side = "below" if status == STATUS_DENSITY_BELOW_TABLE else "above"
         return (f"{where}: the density is {side} the {table_name}'s range [{envelope.density_min:.6g}, "
                 f"{envelope.density_max:.6g}] kg/m^3; build the table over a wider Envelope")
+    if status == STATUS_LIQUID:
+        return (f"{where} is a liquid: denser than the saturated liquid at its temperature; {user} takes gas and "
+                "liquid-vapour mixtures only (docs/model.md §7.3.1)")
     if status == STATUS_NEAR_SATURATION:
         detail = _saturation_detail(fluid, float(temperature), float(density)) if fluid is not None else ""
         return (f"{where} is inside the two-phase dome or less than {envelope.superheat_margin:g} K of superheat "

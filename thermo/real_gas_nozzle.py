@@ -37,10 +37,18 @@ Build check: at every cell centre the flux is computed directly (at sigma = 0.5 
 interpolated one; a cell worse than CELL_TOLERANCE (relative) is refused (STATUS_INACCURATE_CELL), as are cells
 with a node that HEOS could not evaluate.
 
-Status codes: those of `property_table` for the upstream state (0-7), plus
-    STATUS_THROAT_NEAR_SATURATION = 8   upstream accepted; the throat state is inside the dome or within the margin
-                                        of it: the flux is the gas-branch (metastable) continuation.
-For codes 1-7 the flux is NaN.
+Wet upstream states (docs/model.md §7.4.1; off by default, like the property table's dome): a table built with
+`two_phase` (`nozzle_table_for(..., two_phase=True)`; `with_two_phase` switches it off and on again) takes an
+upstream state beyond the dew line as an equilibrium mixture expanding along its equilibrium isentrope (homogeneous
+equilibrium model, thermo.two_phase_nozzle), tabulated with the same pr*, psi*^2, m(sigma) in (T0, x0) over the
+saturation line of the property table (thermo.saturation), which gives x0. The viscosity there is the saturated
+vapour's. At the dew line the flux steps by the difference between the metastable and the equilibrium expansion
+(R134a: 0.1-0.4 % at 250-350 K, up to 2 % near the critical point).
+
+Status codes: those of `property_table` for the upstream state (0-7, and STATUS_LIQUID = 9 with two_phase), plus
+    STATUS_THROAT_NEAR_SATURATION = 8   upstream a gas state; the throat state is inside the dome or within the
+                                        margin of it: the flux is the gas-branch (metastable) continuation.
+For codes 1-7 and 9 the flux is NaN.
 
 Tables are cached on disk per fluid, envelope, grid, format version and CoolProp version (`nozzle_table_for`), in
 the property tables' cache folder.
@@ -64,11 +72,15 @@ from .fluid import Fluid, coolprop, coolprop_version
 from .disk_cache import cache_path, load_or_build
 from .property_table import (DEFAULT_TEMPERATURE_NODES as PROPERTY_TEMPERATURE_NODES, DOME_REFINEMENT,
                              STATUS_DENSITY_ABOVE_TABLE, STATUS_DENSITY_BELOW_TABLE, STATUS_INACCURATE_CELL,
-                             STATUS_INVALID_STATE, STATUS_NEAR_SATURATION, STATUS_OK, STATUS_TEMPERATURE_ABOVE_TABLE,
-                             STATUS_TEMPERATURE_BELOW_TABLE, Envelope, _check_count, _check_envelope,
-                             _checked_envelope, dome_log_density_limit, envelope_status_text)
+                             STATUS_INVALID_STATE, STATUS_LIQUID, STATUS_NEAR_SATURATION, STATUS_OK,
+                             STATUS_TEMPERATURE_ABOVE_TABLE, STATUS_TEMPERATURE_BELOW_TABLE, Envelope, _check_count,
+                             _check_envelope, _checked_envelope, dome_log_density_limit, envelope_status_text)
+from .saturation import (DEFAULT_SATURATION_STEP, LIQUID_VOLUME, SATURATION_QUANTITIES, SATURATION_TOLERANCE,
+                         VAPOUR_VOLUME, build_saturation_line, saturation_quantity)
+from .two_phase_nozzle import (DEFAULT_DOME_TEMPERATURE_NODES, DEFAULT_QUALITY_NODES, EquilibriumIsentrope,
+                               build_dome_nozzle)
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2                      # 2: the saturation line and the two-phase (HEM) upstream states
 DEFAULT_TEMPERATURE_NODES = 64
 DEFAULT_LOG_DENSITY_NODES = 64
 DEFAULT_RATIO_NODES = 17                # sigma nodes on [0, 1]
@@ -100,10 +112,22 @@ class NozzleTable(NamedTuple):
     viscosity: np.ndarray                  # (n_T, n_x): dynamic viscosity of the upstream state [Pa s]
     dome_log_density_limit: np.ndarray     # (n_dome,): largest accepted ln rho in each dome cell
     accurate_cell: np.ndarray              # (n_T - 1, n_x - 1) bool
+    # upstream states inside the dome (thermo.two_phase_nozzle); defaults: a table without them
+    two_phase: float = 0.0                 # 1.0: upstream states beyond the dew line take the HEM part
+    saturation_temperature_min: float = 0.0      # K: the saturation line, as the property table's
+    saturation_temperature_max: float = 0.0      # K, its accepted end; also the last dome node
+    inverse_saturation_step: float = 1.0   # 1/K
+    dome_inverse_temperature_step: float = 1.0   # 1/K, dome nodes from saturation_temperature_min
+    dome_inverse_quality_step: float = 1.0       # quality nodes uniform on [0, 1]
+    saturation_nodes: np.ndarray = np.zeros((2, len(SATURATION_QUANTITIES), 2))   # thermo.saturation
+    dome_critical_ratio: np.ndarray = np.zeros((2, 2))            # (n_Td, n_q): pr* of the HEM expansion
+    dome_choked_flux_factor: np.ndarray = np.zeros((2, 2))        # (n_Td, n_q): psi*^2
+    dome_shape_factor: np.ndarray = np.zeros((2, 2, 2))           # (n_Td, n_q, n_sigma): m
+    dome_accurate_cell: np.ndarray = np.zeros((1, 1), dtype=np.bool_)   # (n_Td - 1, n_q - 1)
 
 
-SCALAR_FIELDS = NozzleTable._fields[:9]
-ARRAY_FIELDS = NozzleTable._fields[9:]
+SCALAR_FIELDS = NozzleTable._fields[:9] + NozzleTable._fields[16:22]
+ARRAY_FIELDS = NozzleTable._fields[9:16] + NozzleTable._fields[22:]
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -116,22 +140,53 @@ ARRAY_FIELDS = NozzleTable._fields[9:]
 
 @kernel(allocates=True)
 def nozzle_table_from_arrays(header, critical_ratio, choked_flux_factor, shape_factor, throat_superheat, viscosity,
-                             dome_log_density_limit, accurate_cell):
+                             dome_log_density_limit, accurate_cell, saturation_nodes, dome_critical_ratio,
+                             dome_choked_flux_factor, dome_shape_factor, dome_accurate_cell):
     """Rebuild a NozzleTable inside nopython code from the arrays of `nozzle_table_arrays(table)` (passing arrays
-    across the Python -> numba boundary is cheaper than unboxing a NamedTuple). `header` holds the nine floats in
-    the order of NozzleTable's first nine fields."""
+    across the Python -> numba boundary is cheaper than unboxing a NamedTuple). `header` holds the floats of
+    SCALAR_FIELDS in that order."""
     return NozzleTable(header[0], header[1], header[2], header[3], header[4], header[5], header[6], header[7],
                        header[8], critical_ratio, choked_flux_factor, shape_factor, throat_superheat, viscosity,
-                       dome_log_density_limit, accurate_cell)
+                       dome_log_density_limit, accurate_cell, header[9], header[10], header[11], header[12],
+                       header[13], header[14], saturation_nodes, dome_critical_ratio, dome_choked_flux_factor,
+                       dome_shape_factor, dome_accurate_cell)
+
+
+@kernel
+def _dome_cell(temperature, density, table):
+    """(in dome, status, i, j, t, s): for a two-phase table and T on its saturation line, whether rho is beyond the
+    dew line, and then the (T, x) cell of the HEM part and the local coordinates (STATUS_LIQUID below x = 0)."""
+    if not (table.two_phase != 0.0 and table.saturation_temperature_min <= temperature
+            and temperature < table.saturation_temperature_max):
+        return False, STATUS_OK, 0, 0, 0.0, 0.0
+    nodes = table.saturation_nodes
+    vapour_volume = saturation_quantity(VAPOUR_VOLUME, temperature, table.saturation_temperature_min,
+                                        table.inverse_saturation_step, nodes)[0]
+    if density * vapour_volume <= 1.0:
+        return False, STATUS_OK, 0, 0, 0.0, 0.0
+    liquid_volume = saturation_quantity(LIQUID_VOLUME, temperature, table.saturation_temperature_min,
+                                        table.inverse_saturation_step, nodes)[0]
+    quality = (1.0 / density - liquid_volume) / (vapour_volume - liquid_volume)
+    if not quality >= 0.0:
+        return True, STATUS_LIQUID, 0, 0, 0.0, 0.0
+    u = (temperature - table.saturation_temperature_min) * table.dome_inverse_temperature_step
+    w = quality * table.dome_inverse_quality_step
+    i = min(int(u), table.dome_critical_ratio.shape[0] - 2)
+    j = min(int(w), table.dome_critical_ratio.shape[1] - 2)
+    if not table.dome_accurate_cell[i, j]:
+        return True, STATUS_INACCURATE_CELL, 0, 0, 0.0, 0.0
+    return True, STATUS_OK, i, j, u - i, w - j
 
 
 @kernel
 def _locate(temperature, density, table):
-    """(status, i, j, t, s): the (T, ln rho) cell of an upstream state and the local coordinates in [0, 1]
-    (one exit: an early return costs about as much as the whole evaluation in numba)."""
+    """(status, i, j, t, s, dome): the cell of an upstream state and the local coordinates in [0, 1]: the
+    (T, ln rho) cell of the gas part, or with dome True the (T, x) cell of the HEM part (two-phase table, beyond
+    the dew line). One exit: an early return costs about as much as the whole evaluation in numba."""
     status = STATUS_OK
     i = j = 0
     t = s = 0.0
+    dome = False
     if not (temperature > 0.0 and density > 0.0):
         status = STATUS_INVALID_STATE
     elif temperature < table.temperature_min:
@@ -145,21 +200,29 @@ def _locate(temperature, density, table):
             status = STATUS_DENSITY_BELOW_TABLE
         elif log_density > table.log_density_max:
             status = STATUS_DENSITY_ABOVE_TABLE
-        elif log_density > limits[min(int((temperature - table.temperature_min) * table.inverse_dome_step),
-                                      limits.size - 1)]:
-            status = STATUS_NEAR_SATURATION
         else:
-            u = (temperature - table.temperature_min) * table.inverse_temperature_step
-            v = (log_density - table.log_density_min) * table.inverse_log_density_step
-            i = min(int(u), table.critical_ratio.shape[0] - 2)
-            j = min(int(v), table.critical_ratio.shape[1] - 2)
-            if table.accurate_cell[i, j]:
-                t = u - i
-                s = v - j
-            else:
-                status = STATUS_INACCURATE_CELL
-                i = j = 0
-    return status, i, j, t, s
+            dome, status, i, j, t, s = _dome_cell(temperature, density, table)
+            if not dome:
+                on_line = (table.two_phase != 0.0 and table.saturation_temperature_min <= temperature
+                           and temperature < table.saturation_temperature_max)
+                if not on_line and log_density > limits[min(int((temperature - table.temperature_min)
+                                                                * table.inverse_dome_step), limits.size - 1)]:
+                    status = STATUS_NEAR_SATURATION
+                else:
+                    status, i, j, t, s = _gas_cell(temperature, log_density, table)
+    return status, i, j, t, s, dome
+
+
+@kernel
+def _gas_cell(temperature, log_density, table):
+    """(status, i, j, t, s) of the (T, ln rho) cell of the gas part (inside the table's rectangle)."""
+    u = (temperature - table.temperature_min) * table.inverse_temperature_step
+    v = (log_density - table.log_density_min) * table.inverse_log_density_step
+    i = min(max(int(u), 0), table.critical_ratio.shape[0] - 2)
+    j = min(max(int(v), 0), table.critical_ratio.shape[1] - 2)
+    if table.accurate_cell[i, j]:
+        return STATUS_OK, i, j, u - i, v - j
+    return STATUS_INACCURATE_CELL, 0, 0, 0.0, 0.0
 
 
 @kernel
@@ -188,28 +251,31 @@ def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, t
     status: 0, the upstream state's refusal (1-7; G is NaN), or STATUS_THROAT_NEAR_SATURATION (8; G is the
     gas-branch continuation through a throat within the superheat margin of the dome or inside it).
     """
-    status, i, j, t, s = _locate(temperature_up, density_up, table)
+    status, i, j, t, s, dome = _locate(temperature_up, density_up, table)
     upstream = pressure_up
     if not (pressure_up > 0.0 and pressure_up < np.inf and pressure_down == pressure_down):
         upstream = 1.0                   # keeps the arithmetic below finite; the flux is NaN
         if status == STATUS_OK:
             status = STATUS_INVALID_STATE
-    critical = _bilinear(table.critical_ratio, i, j, t, s)         # in (0.06, 1) by construction, or NaN
+    critical_ratio = table.dome_critical_ratio if dome else table.critical_ratio
+    choked_flux_factor = table.dome_choked_flux_factor if dome else table.choked_flux_factor
+    shape_factor = table.dome_shape_factor if dome else table.shape_factor
+    critical = _bilinear(critical_ratio, i, j, t, s)         # in (0.06, 1) by construction, or NaN
     sigma = (1.0 - pressure_down / upstream) / (1.0 - critical)
     # selects, not an if/elif (which cost about 50 ns here in numba); NaN and p_down >= p_up give 0: no flow
     sigma = sigma if sigma > 0.0 else 0.0
     sigma = sigma if sigma < 1.0 else 1.0
     position = sigma * table.inverse_sigma_step
-    k = min(int(position), table.shape_factor.shape[2] - 2)
+    k = min(int(position), shape_factor.shape[2] - 2)
     r = position - k
-    shape = _trilinear(table.shape_factor, i, j, k, t, s, r)
+    shape = _trilinear(shape_factor, i, j, k, t, s, r)
     gap = 1.0 - sigma
-    flux = math.sqrt(max(0.0, upstream * density_up * _bilinear(table.choked_flux_factor, i, j, t, s)
+    flux = math.sqrt(max(0.0, upstream * density_up * _bilinear(choked_flux_factor, i, j, t, s)
                          * (1.0 - gap * gap * shape))) if sigma > 0.0 else 0.0
     if status != STATUS_OK:
         flux = np.nan
-    # branch-free, as above
-    near = _trilinear(table.throat_superheat, i, j, k, t, s, r) < table.superheat_margin
+    # branch-free, as above; an equilibrium (HEM) expansion has no metastable throat
+    near = (not dome) and _trilinear(table.throat_superheat, i, j, k, t, s, r) < table.superheat_margin
     status += STATUS_THROAT_NEAR_SATURATION * (status == STATUS_OK) * near
     return flux, status
 
@@ -256,8 +322,13 @@ def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, dens
 @kernel
 def table_viscosity(temperature, density, table):
     """(mu [Pa s], status): dynamic viscosity of the upstream state (bilinear in (T, ln rho); for the Reynolds
-    number of the leakage laws, thermo.leakage). NaN unless status == 0."""
-    status, i, j, t, s = _locate(temperature, density, table)
+    number of the leakage laws, thermo.leakage); inside the dome of a two-phase table the saturated vapour's at
+    T (no mixture rule). NaN unless status == 0."""
+    status, i, j, t, s, dome = _locate(temperature, density, table)
+    if dome and status == STATUS_OK:          # the saturated vapour's (docs/model.md §7.4.1)
+        vapour_volume = saturation_quantity(VAPOUR_VOLUME, temperature, table.saturation_temperature_min,
+                                            table.inverse_saturation_step, table.saturation_nodes)[0]
+        status, i, j, t, s = _gas_cell(temperature, -math.log(vapour_volume), table)
     viscosity = _bilinear(table.viscosity, i, j, t, s)
     if status != STATUS_OK:
         viscosity = np.nan
@@ -471,9 +542,10 @@ def _check_ratio_nodes(value):
 
 
 def build_nozzle_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
-                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES) -> NozzleTable:
+                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
+                       two_phase=False) -> NozzleTable:
     """Evaluate the table's nodes from CoolProp HEOS and check every cell (no disk cache; `nozzle_table_for`
-    caches)."""
+    caches). `two_phase`: also build the HEM part for wet upstream states (about 1 s) and switch it on."""
     envelope = _check_envelope(fluid, envelope)
     temperature_nodes = _check_count("temperature_nodes", temperature_nodes)
     log_density_nodes = _check_count("log_density_nodes", log_density_nodes)
@@ -505,7 +577,59 @@ def build_nozzle_table(fluid: Fluid, envelope: Envelope, temperature_nodes=DEFAU
         critical_ratio=critical, choked_flux_factor=choked, shape_factor=shape, throat_superheat=superheat,
         viscosity=viscosity, dome_log_density_limit=np.minimum(limits[:-1], limits[1:]),
         accurate_cell=np.ones((temperature_nodes - 1, log_density_nodes - 1), dtype=np.bool_))
-    return table._replace(accurate_cell=_accurate_cells(fluid, table, temperatures, log_densities))
+    table = table._replace(accurate_cell=_accurate_cells(fluid, table, temperatures, log_densities))
+    return with_two_phase(_with_dome(fluid, table, envelope, sigmas), True) if two_phase else table
+
+
+def _with_dome(fluid: Fluid, table: NozzleTable, envelope: Envelope, sigmas) -> NozzleTable:
+    """`table` with its saturation line and the HEM part for upstream states inside the dome
+    (thermo.two_phase_nozzle), each dome cell checked at its centre; unchanged if the envelope holds no dome."""
+    line = build_saturation_line(fluid, envelope.temperature_min, envelope.temperature_max)
+    if not line.temperature_max > line.temperature_min:
+        return table
+    critical, choked, shape = build_dome_nozzle(fluid, line.temperature_min, line.temperature_max, sigmas,
+                                                LAST_SIGMA_OFFSET)
+    table = table._replace(
+        saturation_temperature_min=line.temperature_min, saturation_temperature_max=line.temperature_max,
+        inverse_saturation_step=line.inverse_temperature_step,
+        dome_inverse_temperature_step=(critical.shape[0] - 1) / (line.temperature_max - line.temperature_min),
+        dome_inverse_quality_step=float(critical.shape[1] - 1), saturation_nodes=line.nodes,
+        dome_critical_ratio=critical, dome_choked_flux_factor=choked, dome_shape_factor=shape,
+        dome_accurate_cell=np.ones((critical.shape[0] - 1, critical.shape[1] - 1), dtype=np.bool_))
+    return table._replace(dome_accurate_cell=_accurate_dome_cells(fluid, table))
+
+
+def _accurate_dome_cells(fluid: Fluid, table: NozzleTable):
+    """True where the interpolated HEM flux at the cell centre agrees with the direct one
+    (thermo.two_phase_nozzle.EquilibriumIsentrope) to CELL_TOLERANCE at sigma = 0.5 and choked (pr = 0.1 pr*)."""
+    rows, columns = table.dome_critical_ratio.shape
+    accurate = np.zeros((rows - 1, columns - 1), dtype=np.bool_)
+    check_table = with_two_phase(table._replace(dome_accurate_cell=np.ones_like(accurate)), True)
+    for i in range(rows - 1):
+        temperature = table.saturation_temperature_min + (i + 0.5) / table.dome_inverse_temperature_step
+        for j in range(columns - 1):
+            if not (np.all(np.isfinite(table.dome_critical_ratio[i:i + 2, j:j + 2]))
+                    and np.all(np.isfinite(table.dome_shape_factor[i:i + 2, j:j + 2]))):
+                continue
+            try:
+                isentrope = EquilibriumIsentrope(fluid, temperature, (j + 0.5) / table.dome_inverse_quality_step)
+                critical = isentrope.critical_ratio()
+                worst = 0.0
+                for ratio in (1.0 - 0.5 * (1.0 - critical), 0.1 * critical):
+                    exact = math.sqrt(isentrope.flux_squared(max(ratio, critical)))
+                    flux, status = _python_flux(check_table, temperature, isentrope.density, isentrope.pressure,
+                                                ratio * isentrope.pressure)
+                    worst = max(worst, abs(flux / exact - 1.0)) if status == STATUS_OK else math.inf
+            except ValueError:
+                continue
+            accurate[i, j] = worst <= CELL_TOLERANCE
+    return accurate
+
+
+def with_two_phase(table: NozzleTable, two_phase: bool) -> NozzleTable:
+    """The same table with upstream states beyond the dew line taken by the HEM part (two_phase) or refused within
+    the superheat margin of the dome (STATUS_NEAR_SATURATION, as before: the default)."""
+    return table._replace(two_phase=1.0 if two_phase else 0.0)
 
 
 def nozzle_table_arrays(table: NozzleTable):
@@ -525,13 +649,16 @@ def nozzle_table_envelope(table: NozzleTable) -> Envelope:
 # ----------------------------------------------------------------------------------------------------------
 # disk cache
 
-def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_density_nodes, ratio_nodes) -> str:
+def _cache_key(coolprop_name: str, envelope: Envelope, temperature_nodes, log_density_nodes, ratio_nodes,
+               two_phase) -> str:
     """Everything the table's content depends on, as text (floats by repr: exact); no CoolProp import."""
-    return "|".join([f"nozzle format {FORMAT_VERSION}", f"fluid {coolprop_name}",
+    return "|".join([f"nozzle format {FORMAT_VERSION}", f"fluid {coolprop_name}", f"two-phase {bool(two_phase)}",
                      "envelope " + " ".join(repr(float(v)) for v in envelope),
                      f"nodes {temperature_nodes}x{log_density_nodes}x{ratio_nodes}", f"coolprop {coolprop_version()}",
                      f"dome cells {DOME_CELLS}", f"cell tolerance {CELL_TOLERANCE!r}",
-                     f"isentrope tolerance {ISENTROPE_TOLERANCE!r}", f"last sigma {LAST_SIGMA_OFFSET!r}"])
+                     f"isentrope tolerance {ISENTROPE_TOLERANCE!r}", f"last sigma {LAST_SIGMA_OFFSET!r}",
+                     f"saturation step {DEFAULT_SATURATION_STEP!r}", f"saturation tolerance {SATURATION_TOLERANCE!r}",
+                     f"HEM nodes {DEFAULT_DOME_TEMPERATURE_NODES}x{DEFAULT_QUALITY_NODES}"])
 
 
 def _counts(temperature_nodes, log_density_nodes, ratio_nodes):
@@ -541,11 +668,11 @@ def _counts(temperature_nodes, log_density_nodes, ratio_nodes):
 
 def nozzle_table_path(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
                       log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
-                      cache_dir=None) -> Path:
+                      cache_dir=None, two_phase=False) -> Path:
     """The cache file: <cache dir>/nozzle-<fluid>-<hash of the key>.npz (thermo.disk_cache). `fluid`: a Fluid, or
     anything naming one by its canonical `coolprop_name` (a thermo.operating_point.OperatingPoint)."""
     key = _cache_key(fluid.coolprop_name, _checked_envelope(envelope),
-                     *_counts(temperature_nodes, log_density_nodes, ratio_nodes))
+                     *_counts(temperature_nodes, log_density_nodes, ratio_nodes), two_phase)
     return cache_path(f"nozzle-{fluid.coolprop_name}", key, ".npz", cache_dir)
 
 
@@ -563,26 +690,35 @@ def _load(path: Path, key: str, temperature_nodes, log_density_nodes, ratio_node
             or table.throat_superheat.shape != grid + (ratio_nodes,)
             or table.accurate_cell.shape != (temperature_nodes - 1, log_density_nodes - 1)
             or table.accurate_cell.dtype != np.bool_
-            or table.dome_log_density_limit.shape != (DOME_CELLS,)):
+            or table.dome_log_density_limit.shape != (DOME_CELLS,)
+            or table.saturation_nodes.ndim != 3 or table.saturation_nodes.shape[1:] != (len(SATURATION_QUANTITIES), 2)
+            or table.dome_critical_ratio.ndim != 2
+            or table.dome_choked_flux_factor.shape != table.dome_critical_ratio.shape
+            or table.dome_shape_factor.ndim != 3
+            or table.dome_shape_factor.shape[:2] != table.dome_critical_ratio.shape
+            or table.dome_accurate_cell.dtype != np.bool_
+            or table.dome_accurate_cell.shape != tuple(n - 1 for n in table.dome_critical_ratio.shape)):
         raise ValueError("array shapes do not match the key")
     return table
 
 
 def nozzle_table_for(fluid, envelope: Envelope, temperature_nodes=DEFAULT_TEMPERATURE_NODES,
                      log_density_nodes=DEFAULT_LOG_DENSITY_NODES, ratio_nodes=DEFAULT_RATIO_NODES,
-                     cache_dir=None) -> NozzleTable:
+                     cache_dir=None, two_phase=False) -> NozzleTable:
     """The real-gas nozzle table of `fluid` over `envelope` (e.g. the operating point's), loaded from the disk cache
     or built from HEOS and cached (thermo.disk_cache: atomic write; an unreadable or mismatching file is rebuilt
     with a warning, never trusted). `fluid`: a Fluid, or anything naming one by its canonical `coolprop_name` (an
     OperatingPoint): the Fluid, and with it CoolProp, is then made only if the table must be built. The file name
-    hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION."""
+    hashes the fluid, envelope, grid, CoolProp version and FORMAT_VERSION. `two_phase`: a table with the HEM
+    part for wet upstream states, switched on (its own file: the part costs about 1 s to build)."""
     envelope = _checked_envelope(envelope)
     counts = _counts(temperature_nodes, log_density_nodes, ratio_nodes)
-    key = _cache_key(fluid.coolprop_name, envelope, *counts)
+    key = _cache_key(fluid.coolprop_name, envelope, *counts, two_phase)
     return load_or_build(
-        nozzle_table_path(fluid, envelope, *counts, cache_dir=cache_dir), lambda stored: _load(stored, key, *counts),
+        nozzle_table_path(fluid, envelope, *counts, cache_dir=cache_dir, two_phase=two_phase),
+        lambda stored: _load(stored, key, *counts),
         lambda: build_nozzle_table(fluid if isinstance(fluid, Fluid) else Fluid(fluid.coolprop_name), envelope,
-                                   *counts),
+                                   *counts, two_phase),
         lambda stream, table: np.savez(stream, key=np.array(key), **table._asdict()), "nozzle table")
 
 

@@ -3,21 +3,28 @@
  * Dymola, ...): it loads the FMU binary with dlopen and runs it through the plain FMI 2 C API.
  *
  * usage: fmu_host UNZIPPED_FMU_DIR MODEL_IDENTIFIER GUID VR_SPEED VR_TORQUE_MEAN VR_INPUT_POWER SPEED_RPM
- *                 STEPS STEP_SIZE [--quick-exit]
+ *                 STEPS STEP_SIZE [--quick-exit] [--null-guid] [--resources=LOCATION]
+ *
+ * The resource location is file://UNZIPPED_FMU_DIR/resources unless --resources gives it; --null-guid passes a
+ * null pointer as the GUID. The host prints the time from its start to the end of the first fmi2DoStep
+ * ("FIRST_STEP_SECONDS").
  *
  * Prints every log message (the message is a printf format, formatted with vprintf), a line for every call that
  * did not return fmi2OK, the outputs after every 50th step and at the end ("RESULT ..."), and "WORST_STATUS n".
- * Exit status: 0 if every call returned fmi2OK, 3 if one did not, 2 on a usage/loading error.
+ * Exit status: 0 if every call returned fmi2OK, 3 if one did not (or fmi2Instantiate returned NULL), 2 on a
+ * usage/loading error.
  *
  * After fmi2FreeInstance and dlclose the host returns from main (a normal exit, which runs the libraries'
  * destructors) or, with --quick-exit, ends with _exit() (no destructors). pythonfmu 0.7.0's binary corrupts the
  * heap in its destructors at exit, which aborts a normal exit when scipy's libgfortran is loaded (numba loads it).
  */
+#define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 typedef void *fmi2Component;
@@ -95,13 +102,22 @@ static void *symbol(void *library, const char *name) {
 
 int main(int argc, char **argv) {
     char path[4096], resources[4096];
-    if (argc != 10 && !(argc == 11 && strcmp(argv[10], "--quick-exit") == 0)) {
+    struct timespec started;
+    clock_gettime(CLOCK_MONOTONIC, &started);
+    int quick_exit = 0, usage_error = argc < 10;
+    const char *location = NULL, *guid = argc < 10 ? NULL : argv[3];
+    for (int i = 10; i < argc; i++) {
+        if (strcmp(argv[i], "--quick-exit") == 0) quick_exit = 1;
+        else if (strcmp(argv[i], "--null-guid") == 0) guid = NULL;
+        else if (strncmp(argv[i], "--resources=", 12) == 0) location = argv[i] + 12;
+        else usage_error = 1;
+    }
+    if (usage_error) {
         fprintf(stderr, "usage: %s DIR MODEL_IDENTIFIER GUID VR_SPEED VR_TORQUE_MEAN VR_INPUT_POWER SPEED_RPM "
-                        "STEPS STEP_SIZE [--quick-exit]\n", argv[0]);
+                        "STEPS STEP_SIZE [--quick-exit] [--null-guid] [--resources=LOCATION]\n", argv[0]);
         return 2;
     }
-    int quick_exit = argc == 11;
-    const char *directory = argv[1], *identifier = argv[2], *guid = argv[3];
+    const char *directory = argv[1], *identifier = argv[2];
     fmi2ValueReference speed_vr = (fmi2ValueReference)strtoul(argv[4], NULL, 10);
     fmi2ValueReference output_vr[2] = {(fmi2ValueReference)strtoul(argv[5], NULL, 10),
                                        (fmi2ValueReference)strtoul(argv[6], NULL, 10)};
@@ -110,7 +126,8 @@ int main(int argc, char **argv) {
     fmi2Real step_size = strtod(argv[9], NULL);
 
     snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", directory, identifier);
-    snprintf(resources, sizeof resources, "file://%s/resources", directory);
+    if (location) snprintf(resources, sizeof resources, "%s", location);
+    else snprintf(resources, sizeof resources, "file://%s/resources", directory);
     void *library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
     if (library == NULL) {
         fprintf(stderr, "dlopen failed: %s\n", dlerror());
@@ -142,6 +159,12 @@ int main(int argc, char **argv) {
     for (step = 0; step < steps; step++) {
         if (check("fmi2SetReal(shaft_speed)", set_real(c, &speed_vr, 1, &speed)) > fmi2Warning) break;
         if (check("fmi2DoStep", do_step(c, time, step_size, 1)) > fmi2Warning) break;
+        if (step == 0) {
+            struct timespec now;
+            clock_gettime(CLOCK_MONOTONIC, &now);
+            printf("FIRST_STEP_SECONDS %.3f\n", (double)(now.tv_sec - started.tv_sec)
+                                                  + 1e-9 * (double)(now.tv_nsec - started.tv_nsec));
+        }
         time = (step + 1) * step_size;          /* no accumulated rounding */
         if (check("fmi2GetReal", get_real(c, output_vr, 2, outputs)) > fmi2Warning) break;
         if ((step + 1) % 50 == 0)
