@@ -3,8 +3,9 @@
 The model knows nothing of vanes. Per evaluation the caller (the mechanics time loop) hands it the chambers'
 geometric volumes and their rates, the lobe phase of the vane and the gaps of the tip and of the vane's side faces
 with their friction-equivalent lengths (`ChamberInputs`); it returns the rates of its state block (`chamber_rates`,
-the one entry point per evaluation) and the flows of the flow network (thermo.flow_paths: the paths as the rows of
-one table, one routine for their flows and one for the sums per node).
+the one entry point per evaluation) and leaves the flows of the flow network in its working record
+(`chamber_flow_work`; thermo.flow_paths: the paths as the rows of one table, one routine for their flows and one
+for the sums per node).
 
 State block (thermo.chamber_state, placed after the vane's states by the caller): temperature and gas mass of the
 leading (L) and trailing (T) chambers, then cumulative flows across the chambers' boundary (suction side, discharge
@@ -16,7 +17,8 @@ Idle lobes are the suction plenum: each is open to its own suction port all the 
 its state stays at suction conditions; the valley-seal leaks go there, a trailing chamber that becomes idle is
 vented there and a new leading chamber is filled from there. The discharge plenum and the back chamber hold gas
 at p_d on the suction isentrope (h_2s; docs/model.md §7.4). These boundary states are the record's today
-(`boundary_nodes`); the flow routines take them as data with the chambers' states.
+(`boundary_nodes`); chamber_rates writes them into the network's working record with the chambers' states, where
+the flow routines read every node's state.
 """
 from __future__ import annotations
 
