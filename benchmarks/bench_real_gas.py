@@ -24,6 +24,7 @@ from rotary_vane.mechanics.integrators import ACCEPTED, EVALUATIONS, REJECTED, c
 from rotary_vane.mechanics.layout import GAS_BLOCK, MEM_LOBE_START
 from rotary_vane.mechanics.outputs import OUTPUT_SIZE
 from rotary_vane.thermo.chamber_model import LEADING_TEMPERATURE, chamber_fluid_states, chamber_rates
+from rotary_vane.thermo.flow_paths import PATH
 
 from report import heading, table  # benchmarks/ is the script's folder
 
@@ -88,7 +89,8 @@ def _time_chamber_model(n, t, y, memory, rates, arrays, states_only):
         if states_only:
             total += chamber_fluid_states(y, GAS_BLOCK, inputs, c, ctx.properties)[0].pressure
         else:
-            total += chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, rates)[0].discharge
+            chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, rates, ctx.flow_work[0])
+            total += ctx.flow_work[0].mass_flow[PATH.discharge]
     return total
 
 

@@ -32,7 +32,7 @@ import numpy as np                         # noqa: E402
 
 from rotary_vane.examples.cli_types import number_parser, whole_number_parser  # noqa: E402
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
-from rotary_vane.mechanics.displacement import LAW_CODES, displacement  # noqa: E402
+from rotary_vane.mechanics.displacement import DISPLACEMENT_LAWS, displacement  # noqa: E402
 from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
 from rotary_vane.mechanics.parameters import INTEGRATORS  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary, revolutions  # noqa: E402
@@ -224,8 +224,8 @@ def nominal_kinematics(params: CompressorParameters, rpm: float, angle_deg: np.n
 
     The reported revolution starts at a whole multiple of 2 pi, so the angle within it is the rotor angle."""
     omega = rpm * 2.0 * math.pi / 60.0
-    law = (LAW_CODES[params.displacement_law], params.stroke, float(params.lobes), params.bottom_dwell,
-           params.top_dwell)
+    law = (DISPLACEMENT_LAWS.code(params.displacement_law, "displacement_law"), params.stroke, float(params.lobes),
+           params.bottom_dwell, params.top_dwell)
     values = np.array([displacement(theta, *law)[:3] for theta in np.radians(angle_deg)])
     return values[:, 0], values[:, 1] * omega, values[:, 2] * omega ** 2
 

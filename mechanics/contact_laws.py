@@ -7,11 +7,13 @@ Newton iteration with bisection fallback, and beyond its validity limit it conti
 excess is reported by the caller, docs/model.md §5.2).
 """
 import math
+from ..thermo.choices import Choices
 from ..thermo.kernel import kernel
 
-
-HERTZ_POINT, JOHNSON_LINE = 0, 1
-THRELFALL, AMBROSIO = 0, 1
+STIFFNESS_MODELS = Choices("hertz_point", "johnson_line")
+FRICTION_MODELS = Choices("threlfall", "ambrosio")
+HERTZ_POINT, JOHNSON_LINE = STIFFNESS_MODELS.codes("hertz_point", "johnson_line")
+THRELFALL, AMBROSIO = FRICTION_MODELS.codes("threlfall", "ambrosio")
 HERTZ_EXPONENT = 1.5
 SMALLEST_CURVATURE_SUM = 1e-9          # 1/m: a conformal contact (1/R* -> 0) is taken as R* = 1e9 m
 

@@ -6,11 +6,12 @@ stroke h at mid-lobe. Derivatives are with respect to the rotor angle theta.
 import math
 
 import numpy as np
+from ..thermo.choices import Choices
 from ..thermo.kernel import kernel
 
-HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = 0, 1, 2, 3
-LAW_CODES = {"harmonic": HARMONIC, "cycloidal": CYCLOIDAL, "harmonic_dwell": HARMONIC_DWELL,
-             "polynomial_345": POLYNOMIAL_345}
+DISPLACEMENT_LAWS = Choices("harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
+HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = DISPLACEMENT_LAWS.codes(
+    "harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
 
 TWO_PI = 2.0 * math.pi
 

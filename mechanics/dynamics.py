@@ -15,6 +15,7 @@ import numpy as np
 from ..thermo.kernel import kernel
 from ..thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
                                              ChamberInputs, chamber_energy, chamber_rates)
+from ..thermo.flow_paths import PATH
 from ..thermo.leakage import parabolic_flank_length, tapered_gap_length
 from ..thermo.property_table import PropertyTable
 from ..thermo.real_gas_nozzle import NozzleTable
@@ -38,12 +39,14 @@ assert REAL_GAS_COLUMNS == OUTPUT_NAMES[REAL_GAS_FIRST_COLUMN:REAL_GAS_FIRST_COL
 
 class KernelContext(NamedTuple):
     """Everything an evaluation reads besides the state and the memory: the machine constants (record), the speed
-    law, the Level 0/0.5 p_L(phase) table, the chamber model's constants (record), the fluid property table, the
-    real-gas nozzle table (thermo.real_gas_nozzle) and the stator sector table."""
+    law, the Level 0/0.5 p_L(phase) table, the chamber model's constants (record), the flow network's working values
+    (record, thermo.flow_paths.flow_work: written by every evaluation), the fluid property table, the real-gas nozzle
+    table (thermo.real_gas_nozzle) and the stator sector table."""
     machine: np.ndarray
     law: np.ndarray
     pressure_table: np.ndarray
     chambers: np.ndarray
+    flow_work: np.ndarray
     properties: PropertyTable
     nozzles: NozzleTable
     sectors: SectorTable
@@ -196,21 +199,23 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
 
 
 @kernel
-def report_chambers(out, y, inputs, flows, leading, trailing, c, table):
-    """The real-gas columns of the output row, from the chamber state block of y at its geometry."""
+def report_chambers(out, y, inputs, work, status, leading, trailing, c, table):
+    """The real-gas columns of the output row, from the chamber state block of y at its geometry and the flow
+    network's working values `work` and FlowStatus `status` of chamber_rates there."""
     out[O.leading_temperature] = y[GAS_BLOCK + LEADING_TEMPERATURE]
     out[O.trailing_temperature] = y[GAS_BLOCK + TRAILING_TEMPERATURE]
     mass, energy = chamber_energy(y, GAS_BLOCK, inputs, c, table)
     out[O.chamber_mass] = mass
     out[O.chamber_internal_energy] = energy
-    out[O.suction_mass_flow] = flows.suction_leading + flows.suction_trailing
-    out[O.discharge_mass_flow] = flows.discharge
-    out[O.tip_leak_mass_flow] = flows.tip_leak
-    out[O.end_valley_leak_mass_flow] = flows.end_valley_leak
-    out[O.start_valley_leak_mass_flow] = flows.start_valley_leak
-    out[O.slot_leak_leading_mass_flow] = flows.slot_leak_leading
-    out[O.slot_leak_trailing_mass_flow] = flows.slot_leak_trailing
-    out[O.metastable_flow_paths] = flows.metastable
+    flow = work.mass_flow
+    out[O.suction_mass_flow] = flow[PATH.suction_leading] + flow[PATH.suction_trailing]
+    out[O.discharge_mass_flow] = flow[PATH.discharge]
+    out[O.tip_leak_mass_flow] = flow[PATH.tip_leak]
+    out[O.end_valley_leak_mass_flow] = flow[PATH.end_valley_leak]
+    out[O.start_valley_leak_mass_flow] = flow[PATH.start_valley_leak]
+    out[O.slot_leak_leading_mass_flow] = flow[PATH.slot_leak_leading]
+    out[O.slot_leak_trailing_mass_flow] = flow[PATH.slot_leak_trailing]
+    out[O.metastable_flow_paths] = status.metastable
     for k in range(GAS_STATE_SIZE - MASS_SUCTION):
         out[O.mass_suction + k] = y[GAS_BLOCK + MASS_SUCTION + k]
 
@@ -265,7 +270,8 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     if real_gas:
         inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
-        flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, dydt)
+        work = ctx.flow_work[0]
+        flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, dydt, work)
         if leading.status != 0 or trailing.status != 0 or flows.refused != 0:
             status = GAS_STATE_INVALID
         pressures = (leading.pressure, trailing.pressure, m.discharge_pressure)
@@ -277,5 +283,5 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m,
                        out)
         if real_gas:
-            report_chambers(out, y, inputs, flows, leading, trailing, c, ctx.properties)
+            report_chambers(out, y, inputs, work, flows, leading, trailing, c, ctx.properties)
     return status

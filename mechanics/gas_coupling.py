@@ -17,9 +17,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..thermo.chamber_model import chamber_constants
+from ..thermo.chamber_model import chamber_constants, chamber_flow_work
 from ..thermo.gas_reference import GasReference
-from ..thermo.leakage import leakage_law_code
+from ..thermo.flow_paths import FlowNode
+from ..thermo.leakage import LEAKAGE_LAWS
 from ..thermo.operating_point import operating_point_for
 from ..thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
     table_state
@@ -37,16 +38,9 @@ class GasCoupling(NamedTuple):
     properties: tuple                     # thermo.property_table.table_arrays of the fluid (real gas) or a placeholder
     nozzles: tuple                        # thermo.real_gas_nozzle.nozzle_table_arrays (real gas) or a placeholder
     chambers: np.ndarray                  # thermo.chamber_model constants (one-row structured array)
+    flow_work: np.ndarray                 # the flow network's working values (thermo.chamber_model.chamber_flow_work)
     suction_density: float                # kg/m^3
     reference: object                     # thermo.gas_reference.GasReference (real gas) or None
-
-
-class BoundaryState(NamedTuple):
-    """A fixed node of the flow network: T [K], rho [kg/m^3], p [Pa], h [J/kg]."""
-    temperature: float
-    density: float
-    pressure: float
-    enthalpy: float
 
 
 def _placeholder_properties() -> PropertyTable:
@@ -68,7 +62,14 @@ def _placeholder_nozzles() -> NozzleTable:
                        dome_log_density_limit=np.full(2, -np.inf), accurate_cell=np.zeros((1, 1), dtype=np.bool_))
 
 
-def _constants(p: CompressorParameters, suction: BoundaryState, discharge: BoundaryState, valley_flow_length):
+def _law(p: CompressorParameters, name: str) -> int:
+    """The thermo.leakage code of the leakage law parameter `name`."""
+    return LEAKAGE_LAWS.code(getattr(p, name), name)
+
+
+def _constants(p: CompressorParameters, suction: FlowNode, discharge: FlowNode, valley_flow_length):
+    """The chamber model's constants: the boundary states, and the values the flow paths' rows name
+    (thermo.flow_paths.FLOW_PATHS)."""
     scale = p.tolerance_scale
     return chamber_constants(
         suction_pressure=suction.pressure, suction_temperature=suction.temperature, suction_density=suction.density,
@@ -78,15 +79,14 @@ def _constants(p: CompressorParameters, suction: BoundaryState, discharge: Bound
         suction_port_area=p.suction_port_area, suction_port_coefficient=p.suction_port_coefficient,
         discharge_port_area=p.discharge_port_area, discharge_port_coefficient=p.discharge_port_coefficient,
         axial_length=p.axial_length, valley_gap=p.stator_clearance, valley_flow_length=valley_flow_length,
-        end_valley_law=leakage_law_code(p.end_valley_leak_law), end_valley_coefficient=p.end_valley_leak_coefficient,
-        start_valley_law=leakage_law_code(p.start_valley_leak_law),
-        start_valley_coefficient=p.start_valley_leak_coefficient, tip_law=leakage_law_code(p.tip_leak_law),
-        tip_coefficient=p.tip_leak_coefficient, slot_law=leakage_law_code(p.slot_leak_law),
-        slot_coefficient=p.slot_leak_coefficient,
+        end_valley_law=_law(p, "end_valley_leak_law"), end_valley_coefficient=p.end_valley_leak_coefficient,
+        start_valley_law=_law(p, "start_valley_leak_law"), start_valley_coefficient=p.start_valley_leak_coefficient,
+        tip_law=_law(p, "tip_leak_law"), tip_coefficient=p.tip_leak_coefficient,
+        slot_law=_law(p, "slot_leak_law"), slot_coefficient=p.slot_leak_coefficient,
         atol_temperature=1e-4 * scale, atol_mass=1e-12 * scale, atol_energy=1e-6 * scale)
 
 
-def _check_nozzle_inlet(name: str, value, state: BoundaryState, table: NozzleTable, where: str):
+def _check_nozzle_inlet(name: str, value, state: FlowNode, table: NozzleTable, where: str):
     """Refuse, before any work, a boundary state that is upstream of a flow path but that the nozzle table refuses
     (status 1-7; 8, a metastable throat, is accepted as in the loop, docs/model.md §7.4)."""
     status = real_gas_mass_flux(state.temperature, state.density, state.pressure, 0.5 * state.pressure, table)[1]
@@ -108,13 +108,13 @@ def _density_at_pressure(temperature, pressure, guess, table: PropertyTable) -> 
     return math.nan
 
 
-def _back_chamber(point, table: PropertyTable) -> BoundaryState:
+def _back_chamber(point, table: PropertyTable) -> FlowNode:
     """The discharge plenum and back chamber (docs/model.md §7.4): p_d on the suction isentrope, T_2s = T(p_d, h_2s)
     from the operating point, rho on the property table, h its h (so a warm start asks no CoolProp)."""
     temperature = point.discharge_temperature(point.isentropic_discharge_enthalpy)
     density = _density_at_pressure(temperature, point.discharge_pressure,
                                    point.discharge_pressure / (point.gas_constant * temperature), table)
-    return BoundaryState(temperature, density, point.discharge_pressure, table_properties(temperature, density,
+    return FlowNode(temperature, density, point.discharge_pressure, table_properties(temperature, density,
                                                                                            table)[1])
 
 
@@ -122,7 +122,7 @@ def _real_gas_coupling(p: CompressorParameters) -> GasCoupling:
     point = operating_point_for(p.fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
     table = property_table_for(point, point.envelope)
     nozzles = nozzle_table_for(point, point.envelope)
-    suction = BoundaryState(p.suction_temperature, point.suction_density, p.suction_pressure,
+    suction = FlowNode(p.suction_temperature, point.suction_density, p.suction_pressure,
                             table_properties(p.suction_temperature, point.suction_density, table)[1])
     discharge = _back_chamber(point, table)
     _check_nozzle_inlet("fluid", p.fluid, suction, nozzles, "suction state")
@@ -131,7 +131,8 @@ def _real_gas_coupling(p: CompressorParameters) -> GasCoupling:
                             "back chamber (p_d on the suction isentrope)")
     reference = GasReference(point, p.lobes * p.axial_length * lobe_area(p))
     return GasCoupling(np.zeros(2), table_arrays(table), nozzle_table_arrays(nozzles),
-                       _constants(p, suction, discharge, valley_seal_length(p)), point.suction_density, reference)
+                       _constants(p, suction, discharge, valley_seal_length(p)), chamber_flow_work(),
+                       point.suction_density, reference)
 
 
 def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCoupling:
@@ -141,7 +142,7 @@ def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCou
         return _real_gas_coupling(p)
     density = p.suction_pressure / (p.gas_constant * p.suction_temperature)
     enthalpy = p.heat_capacity_ratio * p.gas_constant / (p.heat_capacity_ratio - 1.0) * p.suction_temperature
-    suction = BoundaryState(p.suction_temperature, density, p.suction_pressure, enthalpy)
+    suction = FlowNode(p.suction_temperature, density, p.suction_pressure, enthalpy)
     return GasCoupling(leading_pressure_table(p, operating_speed), table_arrays(_placeholder_properties()),
-                       nozzle_table_arrays(_placeholder_nozzles()), _constants(p, suction, suction, 0.0), density,
-                       None)
+                       nozzle_table_arrays(_placeholder_nozzles()), _constants(p, suction, suction, 0.0),
+                       chamber_flow_work(), density, None)

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..thermo.kernel import kernel
 
-from .displacement import LAW_CODES, displacement, displacement_given_trig
+from .displacement import DISPLACEMENT_LAWS, displacement, displacement_given_trig
 
 TWO_PI = 2.0 * math.pi
 
@@ -197,8 +197,8 @@ def closest_pitch_frame(tx, ty, u_start, law, stroke, lobes, bottom_dwell, top_d
 
 def law_arguments(params):
     """The displacement-law arguments (law code, h, z, beta0, beta1, R0) of a parameter set."""
-    return (LAW_CODES[params.displacement_law], params.stroke, float(params.lobes), params.bottom_dwell,
-            params.top_dwell, params.base_radius)
+    return (DISPLACEMENT_LAWS.code(params.displacement_law, "displacement_law"), params.stroke, float(params.lobes),
+            params.bottom_dwell, params.top_dwell, params.base_radius)
 
 
 @kernel(allocates=True)

@@ -473,14 +473,14 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
 
 
 @kernel(allocates=True)
-def context(machine, law, pressure_table, chambers, table_scalars, table_nodes, dome_limit, accurate_cell,
+def context(machine, law, pressure_table, chambers, flow_work, table_scalars, table_nodes, dome_limit, accurate_cell,
             ideal_gas_exponent, saturation_nodes, nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
             nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity, nozzle_dome_limit, nozzle_accurate_cell,
             nozzle_saturation_nodes, nozzle_dome_critical_ratio, nozzle_dome_choked_flux_factor,
             nozzle_dome_shape_factor, nozzle_dome_accurate_cell, sector_segments, sector_nodes):
     """The KernelContext of plain arrays: only arrays cross the Python -> numba boundary (a named tuple costs
     microseconds per call to unbox), the named records are built here."""
-    return KernelContext(machine, law, pressure_table, chambers,
+    return KernelContext(machine, law, pressure_table, chambers, flow_work,
                          table_from_arrays(table_scalars, table_nodes, dome_limit, accurate_cell,
                                            ideal_gas_exponent, saturation_nodes),
                          nozzle_table_from_arrays(nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,

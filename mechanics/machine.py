@@ -11,7 +11,7 @@ import numpy as np
 
 from .chamber_geometry import sector_integral, sector_table
 from .contact_laws import HERTZ_POINT, hertz_stiffness, line_contact_constants
-from .displacement import LAW_CODES
+from .displacement import DISPLACEMENT_LAWS
 from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
 from ..thermo.kernel import kernel_record
 
@@ -96,7 +96,8 @@ def machine_array(p: CompressorParameters) -> np.ndarray:
     tip_centre = -vane.centre_of_mass
     scale = p.tolerance_scale
     values = dict(
-        lobes=float(p.lobes), law=float(LAW_CODES[p.displacement_law]), stroke=p.stroke,
+        lobes=float(p.lobes), law=float(DISPLACEMENT_LAWS.code(p.displacement_law, "displacement_law")),
+        stroke=p.stroke,
         bottom_dwell=p.bottom_dwell, top_dwell=p.top_dwell, rotor_radius=p.rotor_radius,
         base_radius=p.base_radius, tip_radius=p.tip_radius, half_thickness=0.5 * p.vane_thickness,
         half_slot_width=0.5 * p.slot_width, mouth_radius=p.mouth_radius, slot_bottom_radius=p.slot_bottom_radius,
@@ -105,14 +106,15 @@ def machine_array(p: CompressorParameters) -> np.ndarray:
         vane_mass=vane.mass, vane_inertia=vane.inertia, rotor_inertia=p.rotor_inertia,
         edge_radius=p.edge_radius, effective_modulus=effective_modulus(p.youngs_modulus, p.poisson_ratio),
         compliance=(1.0 - p.poisson_ratio ** 2) / p.youngs_modulus,
-        stiffness_model=float(STIFFNESS_MODELS.index(p.stiffness_model)), restitution=p.restitution,
+        stiffness_model=float(STIFFNESS_MODELS.code(p.stiffness_model, "stiffness_model")),
+        restitution=p.restitution,
         onset_velocity_floor=p.onset_velocity_floor,
-        friction_model=float(FRICTION_MODELS.index(p.friction_model)),
+        friction_model=float(FRICTION_MODELS.code(p.friction_model, "friction_model")),
         friction_coefficient=p.friction_coefficient, friction_velocity=p.friction_velocity,
         friction_velocity_full=p.friction_velocity_full,
         suction_pressure=p.suction_pressure, discharge_pressure=p.discharge_pressure, dead_volume=p.dead_volume,
-        pressure_model=float(PRESSURE_MODELS.index(p.pressure_model)),
-        integrator=float(INTEGRATORS.index(p.integrator)), relative_tolerance=p.relative_tolerance,
+        pressure_model=float(PRESSURE_MODELS.code(p.pressure_model, "pressure_model")),
+        integrator=float(INTEGRATORS.code(p.integrator, "integrator")), relative_tolerance=p.relative_tolerance,
         atol_position=1e-9 * scale, atol_angle=1e-8 * scale, atol_velocity=1e-6 * scale,
         atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
         max_step=p.max_step, contact_period=math.nan, max_onset_penetration=p.max_onset_penetration,
@@ -137,6 +139,5 @@ def machine_from_parameters(p: CompressorParameters):
     return record_of(machine_array(p))
 
 
-PRESSURE_MODEL_CODES = {name: i for i, name in enumerate(PRESSURE_MODELS)}
-REAL_GAS_MODEL = float(PRESSURE_MODEL_CODES["real_gas"])
-DOPRI5, ABM4 = (float(INTEGRATORS.index(name)) for name in ("dopri5", "abm4"))
+REAL_GAS_MODEL = float(PRESSURE_MODELS.codes("real_gas")[0])
+DOPRI5, ABM4 = (float(code) for code in INTEGRATORS.codes("dopri5", "abm4"))

@@ -13,17 +13,19 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..thermo.choices import Choices
 from ..thermo.fluid import UnknownFluidError
 from ..thermo.leakage import LEAKAGE_LAWS
 from ..thermo.operating_point import operating_point_for
 
+from .contact_laws import FRICTION_MODELS, STIFFNESS_MODELS
+from .displacement import DISPLACEMENT_LAWS
 from .geometry import check_stator_regularity
 
-DISPLACEMENT_LAWS = ("harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
-INTEGRATORS = ("dopri5", "abm4")
-STIFFNESS_MODELS = ("hertz_point", "johnson_line")
-FRICTION_MODELS = ("threlfall", "ambrosio")
-PRESSURE_MODELS = ("polytropic", "ideal_gas_table", "real_gas")
+# a choice is declared as a thermo.choices.Choices next to the kernel that branches on its code; these two are
+# read by the time loop through mechanics.machine
+INTEGRATORS = Choices("dopri5", "abm4")
+PRESSURE_MODELS = Choices("polytropic", "ideal_gas_table", "real_gas")
 
 
 def _number(default, unit, minimum, maximum, description, *, integer=False):
@@ -39,7 +41,7 @@ def _fluid(default, description):
 
 
 def _choice(default, choices, description):
-    """A parameter that takes one of a fixed set of string values."""
+    """A parameter that takes one of a fixed set of string values (a thermo.choices.Choices)."""
     return field(default=default, metadata=dict(unit="", choices=choices, description=description))
 
 
@@ -186,7 +188,7 @@ def declarations():
 def allowed_range_text(metadata: dict[str, Any]) -> str:
     """Human-readable allowed range of one parameter, e.g. '[0, 0.001] m' or 'one of harmonic, cycloidal'."""
     if "choices" in metadata:
-        return "one of " + ", ".join(metadata["choices"])
+        return metadata["choices"].allowed()
     if metadata.get("fluid"):
         return "a CoolProp fluid name"
     kind = "integer in " if metadata["integer"] else ""

@@ -131,8 +131,8 @@ class Simulation:
         machine = machine_array(p)
         self.machine = record_of(machine)          # the constants by name (mechanics.machine)
         sectors = sector_table(self.machine)
-        self._context = (machine, None, self.gas.pressure_table, self.gas.chambers, *self.gas.properties,
-                         *self.gas.nozzles, sectors.segments, sectors.nodes)
+        self._context = (machine, None, self.gas.pressure_table, self.gas.chambers, self.gas.flow_work,
+                         *self.gas.properties, *self.gas.nozzles, sectors.segments, sectors.nodes)
         self.keep_history = keep_history
         self.time = 0.0
         self.speed_law = speed.segment(0.0, float(initial_angle))

@@ -2,6 +2,11 @@
 T8 (clearance geometry), and the six-region detection against an independent docs/model.md §4 reference
 (tests/conftest.py)."""
 import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -540,3 +545,88 @@ def test_tip_on_nominal_path_has_stator_gap(check, reference, lobes, clearance):
             result = tip_contact(pose_of(g[0], g[1], phi, theta, m), 0.0, m)
             worst = max(worst, abs(result.candidate.penetration - (offset - clearance)))
     check("T8 |delta_S - (g - c_S)| [m]", worst, 1e-15)
+
+
+# docs/model.md §14.3, done to a copy of the project's packages: the recipe's two edits of mechanics/contact_laws.py
+RECIPE_EDITS = (
+    ('FRICTION_MODELS = Choices("threlfall", "ambrosio")',
+     'FRICTION_MODELS = Choices("threlfall", "ambrosio", "linear_ramp")'),
+    ('THRELFALL, AMBROSIO = FRICTION_MODELS.codes("threlfall", "ambrosio")',
+     'THRELFALL, AMBROSIO, LINEAR_RAMP = FRICTION_MODELS.codes("threlfall", "ambrosio", "linear_ramp")'),
+    ('    if m.friction_model == THRELFALL:\n',
+     '    if m.friction_model == LINEAR_RAMP:\n'
+     '        return m.friction_coefficient * min(1.0, slip_speed / m.friction_velocity)\n'
+     '    if m.friction_model == THRELFALL:\n'),
+)
+USE_THE_NEW_LAW = r'''
+import dataclasses, math, sys
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+from rotary_vane.mechanics.contact_laws import LINEAR_RAMP, friction_coefficient_effective
+from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.parameters import markdown_table
+from rotary_vane.fmu_src.variables import declared_parameter
+assert __import__("rotary_vane.mechanics").mechanics.__file__.startswith(sys.argv[1])      # the copy, not the project
+p = CompressorParameters(friction_model="linear_ramp", friction_velocity=0.02)
+m = machine_from_parameters(p)
+assert LINEAR_RAMP == 2 and m.friction_model == LINEAR_RAMP
+for slip in (0.0, 0.005, 0.01, 0.02, 0.3):                 # mu min(1, v/v_0), written here
+    expected = p.friction_coefficient * min(1.0, slip / 0.02)
+    assert abs(friction_coefficient_effective(slip, m) - expected) <= 1e-15, (slip, expected)
+threlfall = machine_from_parameters(CompressorParameters(friction_velocity=0.02))
+assert friction_coefficient_effective(0.01, threlfall) == p.friction_coefficient * (1.0 - math.exp(-1.5))
+try:
+    CompressorParameters(friction_model="coulomb")
+    raise AssertionError("an unknown friction model was accepted")
+except ValueError as error:
+    assert "'friction_model' = 'coulomb'" in str(error) and "threlfall, ambrosio, linear_ramp" in str(error)
+assert "linear_ramp" in markdown_table()
+declared = {f.name: f for f in dataclasses.fields(CompressorParameters)}["friction_model"]
+assert "linear_ramp" in declared_parameter("friction_model", declared.metadata).description
+if "run" in sys.argv:
+    from rotary_vane.mechanics.performance import revolutions
+    simulation = Simulation(p, constant_speed(1500.0))
+    simulation.advance(2 * 0.04)
+    last = revolutions(simulation)[-1]
+    assert last.friction_power > 0.0 and abs(last.ledger_residual) < 1e-3, (last.friction_power, last.ledger_residual)
+print("ok")
+'''
+
+
+def project_copy_with_a_new_friction_law(folder: Path) -> Path:
+    """A copy of the packages (and pyproject.toml, which makes it a checkout) with RECIPE_EDITS applied."""
+    project = Path(__file__).resolve().parent.parent
+    for package in ("rotary_vane", "thermo", "mechanics", "fmu_src"):
+        shutil.copytree(project / package, folder / package, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy2(project / "pyproject.toml", folder / "pyproject.toml")
+    laws = folder / "mechanics" / "contact_laws.py"
+    source = laws.read_text()
+    for old, new in RECIPE_EDITS:
+        assert source.count(old) == 1, f"docs/model.md §14.3 no longer matches mechanics/contact_laws.py: {old!r}"
+        source = source.replace(old, new)
+    laws.write_text(source)
+    return folder
+
+
+def run_with_a_new_friction_law(folder: Path, *arguments: str) -> subprocess.CompletedProcess:
+    project = project_copy_with_a_new_friction_law(folder)
+    environment = {**os.environ, "PYTHONPATH": str(project), "ROTARY_VANE_CACHE_DIR": str(folder / "cache")}
+    return subprocess.run([sys.executable, "-c", USE_THE_NEW_LAW, str(project), *arguments], cwd=project,
+                          env=environment, capture_output=True, text=True, timeout=1800)
+
+
+def test_adding_a_friction_law_is_the_recipes_two_edits(tmp_path):
+    """docs/model.md §14.3: a copy of the packages with a third friction law (mu min(1, |v_t|/v_0)) declared in
+    FRICTION_MODELS and given its branch in friction_coefficient_effective, and no other edit, run in a fresh
+    interpreter: the parameter accepts it (and names it among the allowed values when refusing another), the machine
+    record carries its code, the compiled mu_eff follows it, Threlfall's law is unchanged, and the parameter table
+    and the FMU parameter's description list it."""
+    result = run_with_a_new_friction_law(tmp_path)
+    assert result.returncode == 0 and result.stdout.strip().endswith("ok"), result.stderr[-3000:]
+
+
+@pytest.mark.slow
+def test_a_run_with_a_new_friction_law_closes_its_energy_ledger(tmp_path):
+    """docs/model.md §14.3 step 3: two revolutions with the friction law the recipe added (every kernel compiled
+    afresh for the copy) dissipate friction power and close the energy ledger within the issue bound."""
+    result = run_with_a_new_friction_law(tmp_path, "run")
+    assert result.returncode == 0 and result.stdout.strip().endswith("ok"), result.stderr[-3000:]

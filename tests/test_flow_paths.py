@@ -21,9 +21,15 @@ from rotary_vane.mechanics import CompressorParameters, Simulation, constant_spe
 from rotary_vane.mechanics.geometry import valley_seal_length
 from rotary_vane.mechanics.layout import GAS_BLOCK, GAS_STATE_INVALID
 from rotary_vane.mechanics.performance import revolutions
-from rotary_vane.thermo.chamber_model import (LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE,
-                                              ChamberInputs, FlowNode, chamber_flows)
-from rotary_vane.thermo.leakage import friction_length, harmonic_valley_seal_radius, valley_seal_radius
+from rotary_vane.thermo.chamber_model import (CONSTANT_FIELDS, LEADING_MASS, LEADING_TEMPERATURE, PATH_FIELDS,
+                                              TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs,
+                                              boundary_nodes, chamber_constants, chamber_flow_work, chamber_rates,
+                                              path_value_names)
+from rotary_vane.thermo.flow_paths import (BACK, FIXED_GAP, FLOW_PATHS, LEADING, PATH, SUCTION, TRAILING, FlowNode,
+                                           FlowPath, path_flows, set_node)
+from rotary_vane.thermo.property_table import table_from_arrays
+from rotary_vane.thermo.leakage import (LEAKAGE_LAWS, friction_length, harmonic_valley_seal_radius,
+                                        signed_real_gas_leakage_flow, valley_seal_radius)
 from rotary_vane.thermo.real_gas_nozzle import ARRAY_FIELDS, nozzle_table_from_arrays
 
 OPERATING = dict(pressure_model="real_gas", slot_clearance=5e-5, stator_clearance=5e-5)
@@ -265,6 +271,17 @@ def test_closed_gaps_and_sealed_paths_pass_nothing():
         assert outputs[name] == 0.0, name
 
 
+def chamber_flows(inputs, c, leading, trailing, nozzles):
+    """(flow of every path by name, refused, metastable) of the flow network between the two chamber nodes and the
+    run's boundary nodes."""
+    suction, back = boundary_nodes(c)
+    work = chamber_flow_work()[0]
+    for node, state in ((SUCTION, suction), (LEADING, leading), (TRAILING, trailing), (BACK, back)):
+        set_node(work, node, state)
+    status = path_flows(inputs, c, work, nozzles)
+    return dict(zip(PATH._fields, work["mass_flow"])), status.refused, status.metastable
+
+
 def test_flows_are_antisymmetric_in_their_two_sides(every_path):
     """Swapping the two chambers' states reverses the tip flow exactly and exchanges the end- and start-valley
     leaks (same law and coefficient); swapping the two side gaps exchanges the slot flows."""
@@ -274,14 +291,14 @@ def test_flows_are_antisymmetric_in_their_two_sides(every_path):
     leading, trailing = ((*node, 0.0) for node in chamber_nodes(sim, y, outputs))
     inputs = ChamberInputs(1e-6, 1e-6, 0.0, 0.0, MID_LOBE, 20e-6, 1e-3, 10e-6, 5e-3, 30e-6, 5e-3)
     swapped = inputs._replace(slot_gap_leading=inputs.slot_gap_trailing, slot_gap_trailing=inputs.slot_gap_leading)
-    forward = chamber_flows(inputs, c, FlowNode(*leading), FlowNode(*trailing), nozzles)
-    backward = chamber_flows(swapped, c, FlowNode(*trailing), FlowNode(*leading), nozzles)
-    assert forward.tip_leak > 0.0 and backward.tip_leak == -forward.tip_leak
-    assert backward.end_valley_leak == forward.start_valley_leak
-    assert backward.start_valley_leak == forward.end_valley_leak
-    assert backward.slot_leak_leading == forward.slot_leak_trailing
-    assert backward.slot_leak_trailing == forward.slot_leak_leading
-    assert forward.refused == backward.refused == 0
+    forward, refused_forward, _ = chamber_flows(inputs, c, FlowNode(*leading), FlowNode(*trailing), nozzles)
+    backward, refused_backward, _ = chamber_flows(swapped, c, FlowNode(*trailing), FlowNode(*leading), nozzles)
+    assert forward["tip_leak"] > 0.0 and backward["tip_leak"] == -forward["tip_leak"]
+    assert backward["end_valley_leak"] == forward["start_valley_leak"]
+    assert backward["start_valley_leak"] == forward["end_valley_leak"]
+    assert backward["slot_leak_leading"] == forward["slot_leak_trailing"]
+    assert backward["slot_leak_trailing"] == forward["slot_leak_leading"]
+    assert refused_forward == refused_backward == 0
 
 
 def test_metastable_throat_is_accepted_and_counted_a_refused_inlet_invalidates_the_state(every_path):
@@ -297,10 +314,11 @@ def test_metastable_throat_is_accepted_and_counted_a_refused_inlet_invalidates_t
     near = coolprop_state(p.fluid, P=p.discharge_pressure, T=dew_temperature + 2.0)
     trailing = (*chamber_nodes(sim, y, outputs)[1], 0.0)
     inputs = ChamberInputs(1e-6, 1e-6, 0.0, 0.0, MID_LOBE, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    flows = chamber_flows(inputs, c, FlowNode(near.T(), near.rhomass(), near.p(), 0.0), FlowNode(*trailing), nozzles)
-    assert flows.metastable == 1 and flows.refused == 0 and flows.end_valley_leak > 0.0
-    cold = chamber_flows(inputs, c, FlowNode(100.0, 1.0, 2e6, 0.0), FlowNode(*trailing), nozzles)
-    assert cold.refused == 2 and math.isnan(cold.end_valley_leak) and math.isnan(cold.discharge)   # seal, valve
+    flows, refused, metastable = chamber_flows(inputs, c, FlowNode(near.T(), near.rhomass(), near.p(), 0.0),
+                                               FlowNode(*trailing), nozzles)
+    assert metastable == 1 and refused == 0 and flows["end_valley_leak"] > 0.0
+    cold, refused, _ = chamber_flows(inputs, c, FlowNode(100.0, 1.0, 2e6, 0.0), FlowNode(*trailing), nozzles)
+    assert refused == 2 and math.isnan(cold["end_valley_leak"]) and math.isnan(cold["discharge"])   # seal, valve
     refusing = Simulation(sim.params, constant_speed(1500.0), initial_angle=MID_LOBE)
     assert refusing.evaluate(0.0, y)[0] == 0
     refusing.gas.nozzles[1 + ARRAY_FIELDS.index("accurate_cell")][:] = False   # after the header
@@ -364,3 +382,55 @@ def test_level_half_honours_a_sealed_valley_and_refuses_the_friction_law():
         CompressorParameters(pressure_model="ideal_gas_table", end_valley_leak_law="friction_corrected")
     with pytest.raises(ValueError, match="slot_leak_law.*oil.*nozzle, friction_corrected, sealed"):
         CompressorParameters(slot_leak_law="oil")
+
+
+def extended_constants(c, paths, **new_values):
+    """chamber_constants for the path table `paths` with the values of the run's record `c` (its scalars, and the
+    values its path arrays hold under the names the rows of FLOW_PATHS give them) and `new_values`."""
+    values = {name: float(c[name]) for name in CONSTANT_FIELDS}
+    for p, path in enumerate(FLOW_PATHS):
+        for field in PATH_FIELDS:
+            if getattr(path, field) in path_value_names((path,)):
+                values[getattr(path, field)] = float(c[f"path_{field}"][p])
+    return chamber_constants(paths, **values, **new_values)[0]
+
+
+def test_adding_a_flow_path_is_one_row(every_path):
+    """docs/model.md §14.5: a new row (a bypass L -> T through a fixed gap with the tip's law and coefficient) is
+    all a path needs. Closed, the rates are those of the shipped network to the bit and the path is in the flows
+    with no flow; open, its flow is the leakage law's (thermo.leakage, evaluated on its own) and it leaves L and
+    enters T, every other rate unchanged."""
+    sim, y, outputs = every_path
+    c = sim.gas.chambers[0]
+    table = table_from_arrays(*sim.gas.properties)
+    nozzles = nozzle_table_from_arrays(*sim.gas.nozzles)
+    dead = sim.params.dead_volume
+    inputs = ChamberInputs(outputs["leading_volume"] - dead, outputs["trailing_volume"] - dead, 0.0, 0.0, MID_LOBE,
+                           20e-6, 1e-3, 10e-6, 5e-3, 30e-6, 5e-3)
+    bypass = FlowPath("bypass", LEADING, TRAILING, FIXED_GAP, "bypass_gap", "bypass_length", "axial_length",
+                      "tip_law", "tip_coefficient", "")
+    paths = (*FLOW_PATHS, bypass)
+    shipped, flows = np.zeros(y.size), chamber_flow_work()[0]
+    chamber_rates(y, GAS_BLOCK, inputs, c, table, nozzles, shipped, flows)
+    closed, closed_flows = np.zeros(y.size), chamber_flow_work(paths)[0]
+    chamber_rates(y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=0.0, bypass_length=0.0), table,
+                  nozzles, closed, closed_flows)
+    assert np.array_equal(closed, shipped)
+    assert len(closed_flows["mass_flow"]) == len(flows["mass_flow"]) + 1 and closed_flows["mass_flow"][-1] == 0.0
+    assert np.array_equal(closed_flows["mass_flow"][:-1], flows["mass_flow"])
+    gap, length = 15e-6, 2e-3
+    opened, open_flows = np.zeros(y.size), chamber_flow_work(paths)[0]
+    chamber_rates(y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=gap, bypass_length=length), table,
+                  nozzles, opened, open_flows)
+    (t_l, rho_l, p_l), (t_t, rho_t, p_t) = chamber_nodes(sim, y, outputs)
+    expected, status = signed_real_gas_leakage_flow(
+        LEAKAGE_LAWS.code(sim.params.tip_leak_law, "tip_leak_law"), sim.params.tip_leak_coefficient, gap, length,
+        sim.params.axial_length, t_l, rho_l, p_l, t_t, rho_t, p_t, nozzles)
+    assert status == 0 and expected > 0.0
+    assert open_flows["mass_flow"][-1] == pytest.approx(expected, rel=1e-12)
+    changed = {GAS_BLOCK + i for i in (LEADING_TEMPERATURE, LEADING_MASS, TRAILING_TEMPERATURE, TRAILING_MASS)}
+    unchanged = [i for i in range(y.size) if i not in changed]
+    assert np.array_equal(opened[unchanged], shipped[unchanged])
+    assert opened[GAS_BLOCK + LEADING_MASS] == pytest.approx(shipped[GAS_BLOCK + LEADING_MASS] - expected, rel=1e-12)
+    assert opened[GAS_BLOCK + TRAILING_MASS] == pytest.approx(shipped[GAS_BLOCK + TRAILING_MASS] + expected,
+                                                              rel=1e-12)

@@ -13,7 +13,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from rotary_vane.mechanics import CompressorParameters
 from rotary_vane.mechanics import geometry
-from rotary_vane.mechanics.displacement import LAW_CODES, displacement
+from rotary_vane.mechanics.displacement import DISPLACEMENT_LAWS, displacement
 from rotary_vane.mechanics.geometry import (closest_pitch_parameter, law_arguments, lobe_area, pitch_curve, pitch_frame,
                                 stator_point, stator_regularity)
 from rotary_vane.mechanics.machine import machine_from_parameters, vane_mass_properties
@@ -34,7 +34,8 @@ LAW_CASES = {
 
 
 def law_call(name, lobes, theta, stroke=H, bottom_dwell=0.0, top_dwell=0.0):
-    return np.array(displacement(theta, LAW_CODES[name], stroke, float(lobes), bottom_dwell, top_dwell))
+    law = DISPLACEMENT_LAWS.code(name, "displacement_law")
+    return np.array(displacement(theta, law, stroke, float(lobes), bottom_dwell, top_dwell))
 
 
 def law_breakpoints(name, lobes, bottom_dwell=0.0, top_dwell=0.0):

@@ -22,7 +22,7 @@ from rotary_vane.thermo.leakage import (LAW_FRICTION_CORRECTED, LAW_NOZZLE, LAW_
                                         darcy_friction_factor, equivalent_discharge_coefficient, equivalent_gap_radius,
                                         fanno_channel_mass_flux, fanno_equivalent_discharge_coefficient,
                                         friction_flow_ratio, friction_length, gap_region_length, gap_reynolds_number,
-                                        harmonic_valley_seal_radius, leakage_flux, leakage_law_code,
+                                        harmonic_valley_seal_radius, leakage_flux,
                                         pdsim_friction_ratio, signed_leakage_flow, signed_real_gas_leakage_flow,
                                         valley_seal_radius)
 from rotary_vane.thermo.nozzle import isentropic_nozzle_mass_flow
@@ -296,9 +296,10 @@ def test_equivalent_gap_radius():
 
 def test_bad_arguments_name_the_variable(ideal_r134a):
     gas = ideal_r134a
-    assert [leakage_law_code(name) for name in LEAKAGE_LAWS] == [LAW_NOZZLE, LAW_FRICTION_CORRECTED, LAW_SEALED]
-    with pytest.raises(ValueError, match="leakage_law='fanno'.*nozzle, friction_corrected, sealed"):
-        leakage_law_code("fanno")
+    codes = [LEAKAGE_LAWS.code(name, "tip_leak_law") for name in LEAKAGE_LAWS]
+    assert codes == [LAW_NOZZLE, LAW_FRICTION_CORRECTED, LAW_SEALED]
+    with pytest.raises(ValueError, match="'tip_leak_law' = 'fanno'.*nozzle, friction_corrected, sealed"):
+        LEAKAGE_LAWS.code("fanno", "tip_leak_law")
     with pytest.raises(ValueError, match="gap_height=-1e-05"):
         friction_length(-1e-5, 0.038)
     with pytest.raises(ValueError, match="concave_radius=0.02"):

@@ -16,7 +16,7 @@ from rotary_vane.mechanics.errors import IntegrationError
 from rotary_vane.mechanics.layout import GAS_BLOCK
 from rotary_vane.mechanics.outputs import OUTPUT_INDEX
 from rotary_vane.mechanics.performance import revolutions
-from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE
+from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, chamber_derivatives, signed_nozzle_flow
 
 OPERATING = dict(pressure_model="real_gas", slot_clearance=5e-5, stator_clearance=5e-5)
@@ -240,3 +240,35 @@ def test_a_valley_gap_too_wide_for_the_dead_volume_is_refused_before_any_work():
     needed = float(error.value.args[0].rsplit(">= ", 1)[1].split(" ")[0])
     simulation = run(revs=1.05, slot_clearance=1e-3, stator_clearance=1e-3, dead_volume=needed * 1.01)
     assert math.isfinite(simulation.last_output[OUTPUT_INDEX["leading_pressure"]])
+
+
+def test_adding_a_fluid_is_its_coolprop_name():
+    """docs/model.md §14.4: R32, named nowhere in the code, at a duty of its own (evaporating at 0 °C with 10 K
+    superheat, condensing at 40 °C: from CoolProp here) needs no code: its operating point, property and nozzle
+    tables are built on first use, the back node is at p_d on CoolProp's suction isentrope, the chambers' pressures
+    in one right-hand side are CoolProp's p(T, rho) of their states, and a revolution delivers gas and balances
+    its mass."""
+    fluid = "R32"
+    suction_pressure = CoolProp.CoolProp.PropsSI("P", "T", 273.15, "Q", 1, fluid)
+    discharge_pressure = CoolProp.CoolProp.PropsSI("P", "T", 313.15, "Q", 1, fluid)
+    params = CompressorParameters(**OPERATING, fluid=fluid, suction_pressure=suction_pressure,
+                                  suction_temperature=283.15, discharge_pressure=discharge_pressure)
+    sim = Simulation(params, constant_speed(1500.0))
+    entropy = CoolProp.CoolProp.PropsSI("S", "P", suction_pressure, "T", 283.15, fluid)
+    back = sim.gas.chambers[0]
+    assert back["discharge_pressure"] == discharge_pressure
+    assert back["discharge_temperature"] == pytest.approx(
+        CoolProp.CoolProp.PropsSI("T", "P", discharge_pressure, "S", entropy, fluid), rel=1e-6)
+    y = sim.state.copy()
+    y[GAS_BLOCK + LEADING_TEMPERATURE] += 40.0                 # a compressed leading chamber, off the suction state
+    status, rates, row = sim.evaluate(0.0, y)
+    assert status == 0 and np.all(np.isfinite(rates))
+    for chamber, temperature, mass in (
+            ("leading", y[GAS_BLOCK + LEADING_TEMPERATURE], y[GAS_BLOCK + LEADING_MASS]),
+            ("trailing", y[GAS_BLOCK + TRAILING_TEMPERATURE], y[GAS_BLOCK + TRAILING_MASS])):
+        density = mass / row[f"{chamber}_volume"]
+        expected = CoolProp.CoolProp.PropsSI("P", "T", temperature, "D", density, fluid)
+        assert row[f"{chamber}_pressure"] == pytest.approx(expected, rel=1e-5), chamber
+    sim.advance(0.09)                                          # two revolutions at 1500 rpm, and a little
+    figures = revolutions(sim)[-1]
+    assert figures.discharge_mass_flow > 0.0 and abs(figures.gas_mass_residual) < 1e-12

@@ -18,6 +18,8 @@ import functools
 import math
 from typing import NamedTuple
 
+from .checks import checked_number, fail
+
 UNIVERSAL_GAS_CONSTANT = 8314.462        # J/(kmol K), docs/model.md §7.4: R = 8314.462/M with M in kg/kmol
 SUPERHEAT_MARGIN = 1.0                   # K, smallest accepted distance from the dew line (docs/model.md §7.3)
 LIST_FLUIDS_HINT = "list valid names with CoolProp.CoolProp.get_global_param_string('FluidsList')"
@@ -60,19 +62,9 @@ class PressureEntropyState(NamedTuple):
     enthalpy: float                           # h [J/kg]
 
 
-def _fail(name, value, allowed):
-    raise ValueError(f"{name}={value!r} is out of range; allowed: {allowed}")
-
-
 def _positive(name, value, unit):
     """A finite float > 0, else ValueError naming the variable, its value and the range."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        _fail(name, value, f"a finite number > 0 {unit}")
-    if not (math.isfinite(number) and number > 0.0):
-        _fail(name, value, f"a finite number > 0 {unit}")
-    return number
+    return checked_number(name, value, f"a finite number > 0 {unit}", lambda x: x > 0.0)
 
 
 def _unknown_fluid(name) -> UnknownFluidError:
@@ -129,7 +121,7 @@ class Fluid:
     def _check_temperature(self, temperature):
         temperature = _positive("temperature", temperature, "K")
         if not self.minimum_temperature <= temperature <= self.maximum_temperature:
-            _fail("temperature", temperature, f"[{self.minimum_temperature!r}, {self.maximum_temperature!r}] K "
+            fail("temperature", temperature, f"[{self.minimum_temperature!r}, {self.maximum_temperature!r}] K "
                                               f"(validity range of the {self.name} equation of state)")
         return temperature
 
@@ -180,7 +172,7 @@ class Fluid:
         temperature = _positive("temperature", temperature, "K")
         low, high = self.triple_temperature, self.critical_temperature
         if not low <= temperature < high:
-            _fail("temperature", temperature, f"[{low!r}, {high!r}) K (triple point to critical point of {self.name})")
+            fail("temperature", temperature, f"[{low!r}, {high!r}) K (triple point to critical point of {self.name})")
         return temperature
 
     def _dew_point(self, temperature):
@@ -228,9 +220,9 @@ class Fluid:
         try:
             entropy = float(entropy)
         except (TypeError, ValueError):
-            _fail("entropy", entropy, "a finite number [J/(kg K)]")
+            fail("entropy", entropy, "a finite number [J/(kg K)]")
         if not math.isfinite(entropy):
-            _fail("entropy", entropy, "a finite number [J/(kg K)]")
+            fail("entropy", entropy, "a finite number [J/(kg K)]")
         self._update(self._state, CP.PSmass_INPUTS, pressure, entropy, f"p={pressure!r} Pa, s={entropy!r} J/(kg K)")
         return PressureEntropyState(self._state.T(), self._state.rhomass(), self._state.hmass())
 
@@ -280,7 +272,7 @@ def check_operating_numbers(suction_pressure, suction_temperature, discharge_pre
     discharge_pressure = _positive("discharge_pressure", discharge_pressure, "Pa")
     superheat_margin = _positive("superheat_margin", superheat_margin, "K")
     if not discharge_pressure > suction_pressure:
-        _fail("discharge_pressure", discharge_pressure, f"> suction_pressure = {suction_pressure!r} Pa")
+        fail("discharge_pressure", discharge_pressure, f"> suction_pressure = {suction_pressure!r} Pa")
     return suction_pressure, suction_temperature, discharge_pressure, superheat_margin
 
 
@@ -297,15 +289,15 @@ def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, d
     suction_pressure, suction_temperature, discharge_pressure, superheat_margin = check_operating_numbers(
         suction_pressure, suction_temperature, discharge_pressure, superheat_margin)
     if not discharge_pressure <= fluid.maximum_pressure:
-        _fail("discharge_pressure", discharge_pressure,
+        fail("discharge_pressure", discharge_pressure,
               f"<= {fluid.maximum_pressure!r} Pa (validity range of the {fluid.name} equation of state)")
     triple_pressure = fluid.dew_pressure(fluid.triple_temperature)
     if not suction_pressure >= triple_pressure:
-        _fail("suction_pressure", suction_pressure,
+        fail("suction_pressure", suction_pressure,
               f">= {triple_pressure!r} Pa, the triple-point pressure of {fluid.name} (the chamber model's "
               f"property table follows the liquid-vapour dome, which ends there)")
     if not fluid.minimum_temperature <= suction_temperature <= fluid.maximum_temperature:
-        _fail("suction_temperature", suction_temperature,
+        fail("suction_temperature", suction_temperature,
               f"[{fluid.minimum_temperature!r}, {fluid.maximum_temperature!r}] K "
               f"(validity range of the {fluid.name} equation of state)")
     dew = fluid.saturation_temperature(suction_pressure)
@@ -319,5 +311,5 @@ def check_operating_point(fluid: Fluid, suction_pressure, suction_temperature, d
         reason = (f"superheated {fluid.name} vapour: dew temperature {dew!r} K at suction_pressure = "
                   f"{suction_pressure!r} Pa plus a margin of {superheat_margin} K")
     if not suction_temperature >= limit:
-        _fail("suction_temperature", suction_temperature, f">= {limit!r} K ({reason})")
+        fail("suction_temperature", suction_temperature, f">= {limit!r} K ({reason})")
     return fluid.superheat(suction_temperature, suction_pressure)

@@ -50,16 +50,17 @@ import math
 
 import numpy as np
 
+from .checks import checked_number, fail
+from .choices import Choices
 from .control_volume import LINEAR_FLOW_BAND, signed_nozzle_flow
 from .kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
 from .property_table import STATUS_OK
 from .real_gas_nozzle import nozzle_flux_between, table_viscosity
 
-LEAKAGE_LAWS = ("nozzle", "friction_corrected", "sealed")
-LAW_NOZZLE = 0
-LAW_FRICTION_CORRECTED = 1
-LAW_SEALED = 2                  # the path passes nothing (e.g. an oil-sealed slot, docs/model.md §7.4)
+LEAKAGE_LAWS = Choices("nozzle", "friction_corrected", "sealed")
+# LAW_SEALED: the path passes nothing (e.g. an oil-sealed slot, docs/model.md §7.4)
+LAW_NOZZLE, LAW_FRICTION_CORRECTED, LAW_SEALED = LEAKAGE_LAWS.codes("nozzle", "friction_corrected", "sealed")
 
 # PDSim/flow/flow_models.pyx (ibell/pdsim): ar_0 ... ar_10 and Re_star_radial of FrictionCorrectedIsentropicNozzle
 RADIAL_COEFFICIENTS = (25932.1070099, 0.914825434095, -177.588568125, -0.237052788124, -172347.610527,
@@ -218,40 +219,19 @@ def tapered_gap_length(gap_a, gap_b, length):
 # ----------------------------------------------------------------------------------------------------------
 # Python: checks, geometry, documentation figures
 
-def _fail(name, value, allowed):
-    raise ValueError(f"{name}={value!r} is out of range; allowed: {allowed}")
-
-
-def _number(name, value, allowed, test):
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        _fail(name, value, allowed)
-    if not (math.isfinite(number) and test(number)):
-        _fail(name, value, allowed)
-    return number
-
-
 def _positive(name, value, unit):
-    return _number(name, value, f"a finite number > 0 {unit}", lambda x: x > 0.0)
+    return checked_number(name, value, f"a finite number > 0 {unit}", lambda x: x > 0.0)
 
 
 def _non_negative(name, value, unit):
-    return _number(name, value, f"a finite number >= 0 {unit}", lambda x: x >= 0.0)
-
-
-def leakage_law_code(law: str) -> int:
-    """The numba code of a law name (LEAKAGE_LAWS); ValueError for any other name."""
-    if law not in LEAKAGE_LAWS:
-        _fail("leakage_law", law, "one of " + ", ".join(LEAKAGE_LAWS))
-    return LEAKAGE_LAWS.index(law)
+    return checked_number(name, value, f"a finite number >= 0 {unit}", lambda x: x >= 0.0)
 
 
 def equivalent_gap_radius(convex_radius, concave_radius=math.inf):
     """R [m] of the gap h = delta + x^2/(2 R) between a convex surface of radius R1 and a concave one of radius
     R2 > R1 (math.inf: a plane) facing it: 1/R = 1/R1 - 1/R2 (docs/model.md §7.4)."""
     convex_radius = _positive("convex_radius", convex_radius, "m")
-    concave_radius = _number("concave_radius", concave_radius, f"> convex_radius = {convex_radius!r} m or inf",
+    concave_radius = checked_number("concave_radius", concave_radius, f"> convex_radius = {convex_radius!r} m or inf",
                              lambda x: x > convex_radius) if concave_radius != math.inf else math.inf
     return 1.0 / (1.0 / convex_radius - 1.0 / concave_radius)
 
@@ -266,21 +246,21 @@ def valley_seal_radius(rotor_radius, tip_radius, stator_clearance, displacement_
     1/R = 1/R_r - kappa_S. A convex stator valley (kappa_C < 0, many lobes) gives R < R_r.
     """
     rotor_radius = _positive("rotor_radius", rotor_radius, "m")
-    tip_radius = _number("tip_radius", tip_radius, f"a finite number in (0, rotor_radius = {rotor_radius!r}) m",
+    tip_radius = checked_number("tip_radius", tip_radius, f"a finite number in (0, rotor_radius = {rotor_radius!r}) m",
                          lambda x: 0.0 < x < rotor_radius)
     stator_clearance = _non_negative("stator_clearance", stator_clearance, "m")
-    displacement_curvature = _number("displacement_curvature", displacement_curvature, "a finite number [m/rad^2]",
+    displacement_curvature = checked_number("displacement_curvature", displacement_curvature, "a finite number [m/rad^2]",
                                      lambda x: True)
     base = rotor_radius - tip_radius
     pitch_curvature = (base - displacement_curvature) / (base * base)
     offset = tip_radius + stator_clearance
     if not 1.0 + offset * pitch_curvature > 0.0:
-        _fail("displacement_curvature", displacement_curvature,
+        fail("displacement_curvature", displacement_curvature,
               "a value for which the stator is regular at the valley (1 + d kappa_C > 0, docs/model.md §2.5)")
     stator_curvature = pitch_curvature / (1.0 + offset * pitch_curvature)
     opening = 1.0 / rotor_radius - stator_curvature
     if not opening > 0.0:
-        _fail("displacement_curvature", displacement_curvature,
+        fail("displacement_curvature", displacement_curvature,
               "a value for which the gap opens away from the valley (stator curvature below 1/rotor_radius)")
     return 1.0 / opening
 
@@ -289,7 +269,7 @@ def harmonic_valley_seal_radius(rotor_radius, tip_radius, stroke, lobes, stator_
     """`valley_seal_radius` for the harmonic law s = (h/2)(1 - cos z theta): s'' = (h/2) z^2 at the valley."""
     stroke = _positive("stroke", stroke, "m")
     if isinstance(lobes, bool) or not isinstance(lobes, (int, np.integer)) or lobes < 1:
-        _fail("lobes", lobes, "an integer >= 1")
+        fail("lobes", lobes, "an integer >= 1")
     return valley_seal_radius(rotor_radius, tip_radius, stator_clearance, 0.5 * stroke * lobes * lobes)
 
 
@@ -312,7 +292,7 @@ def gap_region_length(gap_height, radius, factor=2.0):
     2 sqrt(2 R delta (factor - 1)) (for comparison with `friction_length`: 1.70 L_eq at factor 2)."""
     gap_height = _positive("gap_height", gap_height, "m")
     radius = _positive("radius", radius, "m")
-    factor = _number("factor", factor, "a finite number > 1", lambda x: x > 1.0)
+    factor = checked_number("factor", factor, "a finite number > 1", lambda x: x > 1.0)
     return 2.0 * math.sqrt(2.0 * radius * gap_height * (factor - 1.0))
 
 
@@ -327,10 +307,10 @@ def _check_flow_arguments(gap_height, flow_length, upstream_pressure, upstream_t
     return (_positive("gap_height", gap_height, "m"), _non_negative("flow_length", flow_length, "m"),
             _positive("upstream_pressure", upstream_pressure, "Pa"),
             _positive("upstream_temperature", upstream_temperature, "K"),
-            _number("downstream_pressure", downstream_pressure,
+            checked_number("downstream_pressure", downstream_pressure,
                     f"a finite number in [0, upstream_pressure = {upstream_pressure!r}) Pa",
                     lambda x: 0.0 <= x < float(upstream_pressure)),
-            _number("heat_capacity_ratio", heat_capacity_ratio, "a finite number > 1", lambda x: x > 1.0),
+            checked_number("heat_capacity_ratio", heat_capacity_ratio, "a finite number > 1", lambda x: x > 1.0),
             _positive("gas_constant", gas_constant, "J/(kg K)"), _positive("viscosity", viscosity, "Pa s"))
 
 
@@ -340,12 +320,12 @@ def equivalent_discharge_coefficient(gap_height, flow_length, upstream_pressure,
     """C_d,eq = m_dot(law) / m_dot(isentropic ideal-gas nozzle, C_d = 1) through the same gap at the given
     conditions (docs/model.md §7.4): C_d for "nozzle", 1/phi(delta, L, Re) for "friction_corrected" (Re from the
     ideal-gas flux). Does not depend on the width."""
-    code = leakage_law_code(law)
+    code = LEAKAGE_LAWS.code(law, "law")
     (gap_height, flow_length, upstream_pressure, upstream_temperature, downstream_pressure, heat_capacity_ratio,
      gas_constant, viscosity) = _check_flow_arguments(gap_height, flow_length, upstream_pressure,
                                                       upstream_temperature, downstream_pressure,
                                                       heat_capacity_ratio, gas_constant, viscosity)
-    discharge_coefficient = _number("discharge_coefficient", discharge_coefficient, "a finite number in (0, 1]",
+    discharge_coefficient = checked_number("discharge_coefficient", discharge_coefficient, "a finite number in (0, 1]",
                                     lambda x: 0.0 < x <= 1.0)
     flux = isentropic_nozzle_mass_flow(1.0, 1.0, upstream_pressure, upstream_temperature, downstream_pressure,
                                        heat_capacity_ratio, gas_constant)

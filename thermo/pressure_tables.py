@@ -5,37 +5,21 @@ Both builders are generic: the caller passes the chamber volume V(phase)
 model this is the thin-vane volume of docs/model.md §6.5. All quantities are SI.
 """
 
-import math
-
 import numpy as np
 
+from .checks import checked_number, fail
 from .kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
-
-
-def _fail(name, value, allowed):
-    raise ValueError(f"{name}={value!r} is out of range; allowed: {allowed}")
-
-
-def _check_scalar(name, value, allowed, condition):
-    """Require a finite real scalar satisfying ``condition(value)``."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        _fail(name, value, allowed)
-    if not (math.isfinite(number) and condition(number)):
-        _fail(name, value, allowed)
-    return number
 
 
 def _check_array(name, values, length, allowed, condition):
     """Require a finite 1-D float array of ``length`` with ``condition`` true element-wise."""
     array = np.asarray(values, dtype=np.float64)
     if array.ndim != 1 or array.size != length:
-        _fail(f"{name}.shape", array.shape, f"({length},), same length as phase")
+        fail(f"{name}.shape", array.shape, f"({length},), same length as phase")
     bad = np.flatnonzero(~(np.isfinite(array) & condition(array)))
     if bad.size:
-        _fail(f"{name}[{bad[0]}]", float(array[bad[0]]), allowed)
+        fail(f"{name}[{bad[0]}]", float(array[bad[0]]), allowed)
     return array
 
 
@@ -43,27 +27,27 @@ def _check_grid(phase, volume, suction_close_phase):
     """Validate an increasing uniform phase grid and a positive volume on it."""
     phase = np.asarray(phase, dtype=np.float64)
     if phase.ndim != 1 or phase.size < 2:
-        _fail("phase.shape", phase.shape, "1-D with at least 2 points")
+        fail("phase.shape", phase.shape, "1-D with at least 2 points")
     phase = _check_array("phase", phase, phase.size, "finite", lambda a: a == a)
     steps = np.diff(phase)
     mean_step = (phase[-1] - phase[0]) / (phase.size - 1)
     if not mean_step > 0.0:
-        _fail("phase", f"[{phase[0]!r}, ..., {phase[-1]!r}]", "strictly increasing")
+        fail("phase", f"[{phase[0]!r}, ..., {phase[-1]!r}]", "strictly increasing")
     worst = int(np.argmax(np.abs(steps - mean_step)))
     if abs(steps[worst] - mean_step) > 1e-6 * mean_step:
-        _fail(f"phase[{worst + 1}]-phase[{worst}]", float(steps[worst]),
+        fail(f"phase[{worst + 1}]-phase[{worst}]", float(steps[worst]),
               f"uniform step {mean_step!r} (relative tolerance 1e-6)")
     volume = _check_array("volume", volume, phase.size, "> 0 m^3", lambda a: a > 0.0)
-    close = _check_scalar("suction_close_phase", suction_close_phase,
+    close = checked_number("suction_close_phase", suction_close_phase,
                           f"[{float(phase[0])!r}, {float(phase[-1])!r}] rad (inside the phase grid)",
                           lambda x: phase[0] <= x <= phase[-1])
     return phase, volume, close
 
 
 def _check_pressures(suction_pressure, discharge_pressure):
-    suction_pressure = _check_scalar("suction_pressure", suction_pressure, "> 0 Pa",
+    suction_pressure = checked_number("suction_pressure", suction_pressure, "> 0 Pa",
                                      lambda x: x > 0.0)
-    discharge_pressure = _check_scalar(
+    discharge_pressure = checked_number(
         "discharge_pressure", discharge_pressure,
         f"> suction_pressure = {suction_pressure!r} Pa", lambda x: x > suction_pressure)
     return suction_pressure, discharge_pressure
@@ -82,7 +66,7 @@ def polytropic_pressure_table(phase, volume, suction_pressure, discharge_pressur
     phase, volume, suction_close_phase = _check_grid(phase, volume, suction_close_phase)
     suction_pressure, discharge_pressure = _check_pressures(suction_pressure,
                                                             discharge_pressure)
-    polytropic_exponent = _check_scalar("polytropic_exponent", polytropic_exponent,
+    polytropic_exponent = checked_number("polytropic_exponent", polytropic_exponent,
                                         "> 0", lambda x: x > 0.0)
     close_volume = np.interp(suction_close_phase, phase, volume)
     compressed = np.minimum(
@@ -155,19 +139,19 @@ def ideal_gas_pressure_table(phase, volume, volume_derivative, angular_speed,
                                                             discharge_pressure)
     positive, non_negative = (lambda x: x > 0.0), (lambda x: x >= 0.0)
     unit_interval = lambda x: 0.0 <= x <= 1.0
-    angular_speed = _check_scalar("angular_speed", angular_speed, "> 0 rad/s", positive)
-    suction_temperature = _check_scalar("suction_temperature", suction_temperature,
+    angular_speed = checked_number("angular_speed", angular_speed, "> 0 rad/s", positive)
+    suction_temperature = checked_number("suction_temperature", suction_temperature,
                                         "> 0 K", positive)
-    leak_area = _check_scalar("leak_area", leak_area, ">= 0 m^2", non_negative)
-    leak_discharge_coefficient = _check_scalar(
+    leak_area = checked_number("leak_area", leak_area, ">= 0 m^2", non_negative)
+    leak_discharge_coefficient = checked_number(
         "leak_discharge_coefficient", leak_discharge_coefficient, "[0, 1]", unit_interval)
-    discharge_port_area = _check_scalar("discharge_port_area", discharge_port_area,
+    discharge_port_area = checked_number("discharge_port_area", discharge_port_area,
                                         ">= 0 m^2", non_negative)
-    discharge_port_coefficient = _check_scalar(
+    discharge_port_coefficient = checked_number(
         "discharge_port_coefficient", discharge_port_coefficient, "[0, 1]", unit_interval)
-    heat_capacity_ratio = _check_scalar("heat_capacity_ratio", heat_capacity_ratio,
+    heat_capacity_ratio = checked_number("heat_capacity_ratio", heat_capacity_ratio,
                                         "> 1", lambda x: x > 1.0)
-    gas_constant = _check_scalar("gas_constant", gas_constant, "> 0 J/(kg K)", positive)
+    gas_constant = checked_number("gas_constant", gas_constant, "> 0 J/(kg K)", positive)
     time_step = (phase[-1] - phase[0]) / (phase.size - 1) / angular_speed
     return _ideal_gas_kernel(
         phase, volume, volume_derivative, time_step, angular_speed, suction_pressure,
