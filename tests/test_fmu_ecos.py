@@ -170,27 +170,32 @@ def test_refused_parameter_reaches_the_user(fmus):
 
 
 def test_first_step_in_ecos_compiles_no_kernel(fmus):
-    """Initialization and the first step of the compressor in Ecos take seconds, not the minute numba needs to
-    compile the kernels: the FMU loads the kernels it ships (README "Running the FMU in other hosts")."""
+    """Ecos hands the FMU its resources as file:///+/tmp/... (//tmp/... once decoded): initialization and the first
+    step load the kernels the FMU ships and compile none (numba's compile events, recorded in the host process;
+    README "Running the FMU in other hosts"). The time it took is printed, not asserted (benchmarks measure)."""
     script = """
 import time
+from numba.core import event
 import fmu_helpers as H, ecos_host
 ecospy = ecos_host.load_ecospy()
 structure = ecospy.EcosSimulationStructure()
 structure.add_model("compressor", {fmu!r})
 structure.add_parameter_set("start", {{"compressor::shaft_speed": 1500.0}})
 simulation = ecospy.EcosSimulation(structure=structure, step_size=1e-3)
-start = time.perf_counter()
-assert simulation.init(parameter_set="start")
-simulation.step(1)
-H.emit(time.perf_counter() - start)
+with event.install_recorder("numba:compile") as recorder:
+    start = time.perf_counter()
+    assert simulation.init(parameter_set="start")
+    simulation.step(1)
+    latency = time.perf_counter() - start
+compiled = sorted({{e.data["dispatcher"].py_func.__qualname__ for _, e in recorder.buffer if e.is_start}})
+H.emit({{"latency": latency, "compiled": compiled, "work": simulation.get_real("compressor::shaft_work")}})
 simulation.terminate()
 simulation.free()
 """.format(fmu=str(fmus / COMPRESSOR))
-    run = H.run_host(script)
-    latency = run.check().result
-    print(f"Ecos: initialization + first step {latency:.2f} s")
-    assert latency < 10.0, f"initialization + first step took {latency:.1f} s: kernels were compiled"
+    result = H.run_host(script).check().result
+    print(f"Ecos: initialization + first step {result['latency']:.2f} s")
+    assert result["compiled"] == [], f"numba compiled {result['compiled']} in Ecos"
+    assert result["work"] > 0.0, result
 
 
 def command_line_rows(folder, out, stop_time, parameter_set):
