@@ -329,7 +329,7 @@ for label, edit in [("a malformed start time {'f': []}", ["set", ["clock", "star
     record("C23", f"deSerializeFMUstate of {label}", status(lambda: f.deSerializeFMUstate(data)))
     record("unchanged", label, blob(f) == good_blob)
     record("C9", f"setFMUstate after {label}", status(lambda: f.setFMUstate(good)))
-out["C23 logged"] = "\n".join(m for _, _, m in host.messages())
+out["C23 logged"] = "\\n".join(m for _, _, m in host.messages())
 
 # C24: the work bound, lowered so that a step of 50 ms (about 3500 attempts) exceeds it
 f.reset()
