@@ -305,7 +305,7 @@ print(json.dumps({"numpy": t1 - t0, "numba": t2 - t1, "scipy": t3 - t2, "total":
 
 
 def startup_costs() -> None:
-    from rotary_vane.thermo.compile_cache import CACHE_ENVIRONMENT_VARIABLE
+    from rotary_vane.kernels.compile_cache import CACHE_ENVIRONMENT_VARIABLE
     heading(f"3. start-up: import mechanics + Simulation({PRESSURE_MODEL}) + advance(1e-4), fresh processes")
     imports, import_wall = run_subprocess(["-c", IMPORT_CODE], {})
     rows = [["import numpy / numba / scipy(+integrate)",

@@ -1,14 +1,14 @@
 """Build the FMUs: `python -m rotary_vane.fmu_src.build [--out build/fmu]`.
 
-Each FMU bundles this project's packages (`thermo`, `mechanics`, `fmu_src`) under a private package name made
-of the version, a hash of the sources and the model identifier (the packages import each other relatively, so the
+Each FMU bundles this project's packages (`kernels`, `thermo`, `mechanics`, `fmu_src`) under a private package name
+made of the version, a hash of the sources and the model identifier (the packages import each other relatively, so the
 copy needs no rewriting), so that a host that has already imported another `mechanics` or `thermo`, another version of
 this project or another FMU of this project (the motor beside the compressor), still runs the FMU's own code,
 imported from the FMU's own resources folder. The entry module pythonfmu loads is generated here; the FMU also carries
 `documentation/index.html` and `resources/requirements.txt`, and is built with `--handle-state --serialize-state`.
 
 The compressor's bundle also carries its kernels compiled for a portable CPU (`compiled_kernels/`,
-thermo.compile_cache), made by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_*
+kernels.compile_cache), made by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_*
 settings are not used); `--no-kernels` leaves them out (a smaller FMU whose first run compiles them). The motor
 calls no kernel (plain Python), so its bundle ships none.
 """
@@ -26,7 +26,7 @@ from pathlib import Path
 
 from pythonfmu import FmuBuilder
 
-from ..thermo.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
+from ..kernels.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
                                               cache_folder, environment_stamp, portable_cpu, source_hash)
 
 from .requirements import bundled_requirements

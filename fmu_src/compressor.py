@@ -21,7 +21,7 @@ from ..mechanics.layout import WORK_IN
 from ..mechanics.machine import machine_from_parameters
 from ..mechanics.modes import MODE_COUNT
 from ..mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
-from ..thermo.compile_cache import cache_root, shipped_kernel_misses, shipped_kernels_refusal
+from ..kernels.compile_cache import cache_root, shipped_kernel_misses, shipped_kernels_refusal
 
 from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity

@@ -1,7 +1,7 @@
 """Vane dynamics with clearance: geometry, contact, equations of motion and the time loop (docs/model.md §1-§6, §8)."""
 from pathlib import Path
 
-from ..thermo.compile_cache import install as _install_compile_cache
+from ..kernels.compile_cache import install as _install_compile_cache
 
 _install_compile_cache(Path(__file__).parent)       # before any kernel is defined
 

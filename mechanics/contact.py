@@ -10,7 +10,7 @@ import math
 from typing import NamedTuple
 
 
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 
 from .geometry import closest_pitch_frame
 from .regions import SLOT_MOUTH, TIP, WALL_CORNER

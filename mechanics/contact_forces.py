@@ -9,7 +9,7 @@ import math
 from typing import NamedTuple
 
 
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 
 from .contact import region_candidate
 from .contact_laws import elastic_force, friction_coefficient_effective, normal_force

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 from ..thermo.choices import Choices
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 
 DISPLACEMENT_LAWS = Choices("harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
 HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = DISPLACEMENT_LAWS.codes(

@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 from ..thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
                                              ChamberInputs, chamber_energy, chamber_rates)
 from ..thermo.flow_paths import PATH

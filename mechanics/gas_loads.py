@@ -9,7 +9,7 @@ psi_c, never clipped) and on its bottom face (back-chamber pressure); the rotor 
 recessed tip junction and the mouth, and on the back-chamber walls; the stator on the active lobe's wall.
 """
 from typing import NamedTuple
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 
 
 

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..thermo.kernel import copy_values, kernel
+from ..kernels.kernel import copy_values, kernel
 from ..thermo.chamber_model import gas_tolerance, switch_chambers
 from ..thermo.property_table import table_from_arrays
 from ..thermo.real_gas_nozzle import nozzle_table_from_arrays

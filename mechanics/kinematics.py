@@ -8,7 +8,7 @@ import math
 from typing import NamedTuple
 
 
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 
 from .layout import ANGLE, ANGULAR_VELOCITY, VX, VY, X, Y
 from .speed import rotor_motion

@@ -13,7 +13,7 @@ from .chamber_geometry import sector_integral, sector_table
 from .contact_laws import HERTZ_POINT, hertz_stiffness, line_contact_constants
 from .displacement import DISPLACEMENT_LAWS
 from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
-from ..thermo.kernel import kernel_record
+from ..kernels.kernel import kernel_record
 
 
 class VaneMassProperties(NamedTuple):

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..thermo.compile_cache import cache_root, source_hash
+from ..kernels.compile_cache import cache_root, source_hash
 
 from .outputs import REVOLUTION, STEP, fmu_outputs
 from .parameters import CompressorParameters

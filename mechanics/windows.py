@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from ..thermo.kernel import kernel
+from ..kernels.kernel import kernel
 
 from .contact import CANDIDATE_TYPES
 from .outputs import O, OUTPUT_SIZE

@@ -422,7 +422,7 @@ STANDIN_PACKAGES = {
                           'STANDIN = "host thermo"\n__version__ = "0.6.1-standin"\n'
                           'def __getattr__(name):\n'
                           '    raise ImportError(f"the host\'s thermo has no {name!r}")\n',
-    "thermo/compile_cache.py": 'raise ImportError("the host\'s thermo.compile_cache was imported by the FMU")\n',
+    "kernels/compile_cache.py": 'raise ImportError("the host\'s kernels.compile_cache was imported by the FMU")\n',
     "fmu_src/__init__.py": 'raise ImportError("the host\'s fmu_src was imported by the FMU")\n',
 }
 

@@ -1,4 +1,4 @@
-"""The compiled kernels RotaryVaneCompressor.fmu ships (issue 9 item 5; thermo/compile_cache.py "Shipped kernels",
+"""The compiled kernels RotaryVaneCompressor.fmu ships (issue 9 item 5; kernels/compile_cache.py "Shipped kernels",
 fmu_src/ship_kernels.py).
 
 Two host processes (tests/fmu_helpers.py) run the FMU with every pressure model and integrator, each instance from
@@ -20,7 +20,7 @@ import numba
 import pytest
 
 import fmu_helpers as H
-from rotary_vane.thermo import compile_cache
+from rotary_vane.kernels import compile_cache
 
 STAMP_MEMBER = "/compiled_kernels/stamp.json"
 RUNS = """
@@ -260,7 +260,7 @@ def files_in(*folders: Path) -> set[str]:
 
 @pytest.mark.parametrize("form", ["file:////abs (Ecos)", "a symbolic link to the folder"])
 def test_the_shipped_kernels_are_found_whatever_path_the_host_gives(fmu, tmp_path, form):
-    """thermo/compile_cache.py compares the bundle's folder with realpath: a resource location of the form
+    """kernels/compile_cache.py compares the bundle's folder with realpath: a resource location of the form
     `file:////tmp/...` (the path `//tmp/...`) or a folder reached through a symbolic link loads the shipped kernels:
     nothing is compiled, nothing written into any cache or the unpack folder, no miss is logged."""
     unpacked = tmp_path / "unpacked"

@@ -1,10 +1,10 @@
 """Every import of the project's own code resolves, read from the source alone, to a file of the repository.
 
 Nothing is installed or imported here: the test parses each file with `ast`, the way an editor or a structure
-viewer reads the source. Inside the library (`thermo/`, `mechanics/`, `fmu_src/`) imports between the folders are
-relative (`from ..thermo.kernel import kernel` in `mechanics/` is the file `thermo/kernel.py`); scripts, tests and
-benchmarks import the installed name `rotary_vane.<folder>`, whose folders pyproject.toml's package-dir maps one to
-one. The layers point one way: thermo <- mechanics <- fmu_src <- examples.
+viewer reads the source. Inside the library (`kernels/`, `thermo/`, `mechanics/`, `fmu_src/`) imports between the
+folders are relative (`from ..kernels.kernel import kernel` in `mechanics/` is the file `kernels/kernel.py`); scripts,
+tests and benchmarks import the installed name `rotary_vane.<folder>`, whose folders pyproject.toml's package-dir maps
+one to one. The layers point one way: kernels <- thermo <- mechanics <- fmu_src <- examples.
 """
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-LIBRARY = ("thermo", "mechanics", "fmu_src")
-LAYER = {"thermo": 0, "mechanics": 1, "fmu_src": 2, "examples": 3}
+LIBRARY = ("kernels", "thermo", "mechanics", "fmu_src")
+LAYER = {"kernels": 0, "thermo": 1, "mechanics": 2, "fmu_src": 3, "examples": 4}
 SOURCES = sorted(path for folder in (*LIBRARY, "examples", "benchmarks", "tests", "docs")
                  for path in (ROOT / folder).rglob("*.py"))
 
@@ -75,7 +75,7 @@ def project_imports(source: Path):
             yield node
         if isinstance(node, ast.Import):
             for alias in node.names:
-                assert alias.name.split(".")[0] != "rotary_vane" or source.parts[-2] not in LIBRARY, (
+                assert alias.name.split(".")[0] != "rotary_vane" or source.relative_to(ROOT).parts[0] not in LIBRARY, (
                     f"{source.relative_to(ROOT)}:{node.lineno}: `import {alias.name}` inside the library; "
                     f"use a relative `from` import")
 
@@ -94,8 +94,8 @@ def test_every_project_import_resolves_to_a_file(source):
         target_folder = target.relative_to(ROOT).parts[0]
         if folder in LAYER and target_folder in LAYER:
             assert LAYER[target_folder] <= LAYER[folder], (
-                f"{where}: {folder}/ imports {target_folder}/, against the layering thermo <- mechanics <- fmu_src "
-                f"<- examples")
+                f"{where}: {folder}/ imports {target_folder}/, against the layering kernels <- thermo <- mechanics "
+                f"<- fmu_src <- examples")
         defined = top_level_names(target)
         for alias in node.names:
             if alias.name == "*":
@@ -109,5 +109,5 @@ def test_the_resolver_finds_a_broken_import(tmp_path):
     """The check can fail: a relative import of a module that does not exist resolves to nothing."""
     node = ast.parse("from ..thermo.no_such_module import x").body[0]
     assert resolve(ROOT / "mechanics" / "dynamics.py", node, package_dir())[0] is None
-    node = ast.parse("from ..thermo.kernel import kernel").body[0]
-    assert resolve(ROOT / "mechanics" / "dynamics.py", node, package_dir())[0] == ROOT / "thermo" / "kernel.py"
+    node = ast.parse("from ..kernels.kernel import kernel").body[0]
+    assert resolve(ROOT / "mechanics" / "dynamics.py", node, package_dir())[0] == ROOT / "kernels" / "kernel.py"

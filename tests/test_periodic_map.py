@@ -10,7 +10,7 @@ from rotary_vane.mechanics import CompressorParameters
 from rotary_vane.mechanics.periodic_map import (CHANNELS, FIGURES, PROJECT_DIR, TORQUE, MapSettings, MapTable,
                                                 build_map, cache_key, chord_deviation,
                                                 curvature_refinement)
-from rotary_vane.thermo.compile_cache import PROJECT_PACKAGES
+from rotary_vane.kernels.compile_cache import PROJECT_PACKAGES
 
 SAMPLES = 720
 

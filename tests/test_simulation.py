@@ -212,7 +212,7 @@ def test_kernels_are_the_python_functions_without_numba_jit():
     import sys
     script = ("import json, numpy as np\n"
               "from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed\n"
-              "from rotary_vane.thermo.kernel import copy_values\n"
+              "from rotary_vane.kernels.kernel import copy_values\n"
               "states = {}\n"
               "for model in ('ideal_gas_table', 'real_gas'):\n"
               "    p = CompressorParameters(pressure_model=model, slot_clearance=5e-5, stator_clearance=5e-5)\n"

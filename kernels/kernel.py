@@ -1,7 +1,7 @@
 """How the project compiles the functions of its time loop (docs/model.md §8.2).
 
 `@kernel` is numba's nopython mode with three settings every loop function shares:
-- cached on disk (per source version, thermo.compile_cache), so a new process does not compile again, and read from
+- cached on disk (per source version, kernels.compile_cache), so a new process does not compile again, and read from
   the kernels an FMU ships compiled when they can be used (`KernelCache`);
 - numpy's error model: a division by zero or the logarithm of a negative number gives inf or NaN, never a Python
   exception, so nothing can leave the compiled loop as an exception; the loop checks its state for finiteness and

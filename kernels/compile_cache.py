@@ -10,18 +10,19 @@ folder on every run, as fmpy does with an FMU, never finds its cache and compile
 `<cache root>/<hash of all the project's sources>/<package>/`: any change of any source file gives a new folder,
 and identical sources find the same folder wherever they are unpacked. The cache root is the environment
 variable ROTARY_VANE_CACHE_DIR, else `$XDG_CACHE_HOME/rotary-vane-compressor/numba` (default `~/.cache/...`).
-This module lives in the lowest layer because every package of the project uses it.
+This module lives in the lowest layer, kernels/, because every package of the project uses it.
 
 Shipped kernels. An FMU built by fmu_src.build carries its kernels compiled (fmu_src/ship_kernels.py) in numba's own
-cache format, in `compiled_kernels/` next to the bundled packages (laid out as a cache folder: `thermo/...`,
-`mechanics/...`), with `stamp.json`: the numba, llvmlite and Python versions, the LLVM target triple and the source
-hash they were compiled for, and the portable CPU they were compiled for (`portable_cpu`) with the CPU features that
-code needs. numba keys a cache entry by the CPU it was compiled for, so this process's own key never finds them:
-when the stamp matches this process and this CPU has those features, each kernel's `KernelCache` first looks in the
-shipped folder under the shipped CPU's key, read-only, and otherwise loads from or compiles into the user's cache
-folder as without shipped kernels. When anything differs nothing shipped is used and `shipped_kernels_refusal()`
-says why (the compressor FMU logs it). numba's cache index and data files are pickles, which numba unpickles: the
-shipped ones are trusted as the FMU's Python code is, which comes from the same archive and runs in the host too.
+cache format, in `compiled_kernels/` next to the bundled packages (laid out as a cache folder: `kernels/...`,
+`thermo/...`, `mechanics/...`), with `stamp.json`: the numba, llvmlite and Python versions, the LLVM target triple and
+the source hash they were compiled for, and the portable CPU they were compiled for (`portable_cpu`) with the CPU
+features that code needs. numba keys a cache entry by the CPU it was compiled for, so this process's own key never
+finds them: when the stamp matches this process and this CPU has those features, each kernel's `KernelCache` first
+looks in the shipped folder under the shipped CPU's key, read-only, and otherwise loads from or compiles into the
+user's cache folder as without shipped kernels. When anything differs nothing shipped is used and
+`shipped_kernels_refusal()` says why (the compressor FMU logs it). numba's cache index and data files are pickles,
+which numba unpickles: the shipped ones are trusted as the FMU's Python code is, which comes from the same archive and
+runs in the host too.
 """
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ from llvmlite import binding as llvm
 from numba.core import caching
 
 CACHE_ENVIRONMENT_VARIABLE = "ROTARY_VANE_CACHE_DIR"
-PROJECT_PACKAGES = ("thermo", "mechanics", "fmu_src")
+PROJECT_PACKAGES = ("kernels", "thermo", "mechanics", "fmu_src")
 SHIPPED_FOLDER = "compiled_kernels"
 STAMP_FILE = "stamp.json"
 # The CPU the shipped kernels are compiled for (numba's NUMBA_CPU_NAME, with NUMBA_CPU_FEATURES="": the CPU model's
