@@ -27,7 +27,7 @@ from pathlib import Path
 from pythonfmu import FmuBuilder
 
 from ..kernels.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
-                                              cache_folder, environment_stamp, portable_cpu, source_hash)
+                                     cache_folder, environment_stamp, portable_cpu, source_hash)
 
 from .requirements import bundled_requirements
 from .status_shim import DEGRADED as SHIM_DEGRADED
@@ -148,7 +148,7 @@ def ship_map(private: str, map_file: Path) -> None:
     values = json.loads(Path(map_file).read_text())
     operating = float(values.pop("pressure_table_speed", 1500.0))
     parameters = __import__(f"{private}.mechanics.parameters", fromlist=["CompressorParameters"])
-    tables = __import__(f"{private}.mechanics.periodic_map", fromlist=["build_map"])
+    tables = __import__(f"{private}.mechanics.reduced.periodic_map", fromlist=["build_map"])
     mode = __import__(f"{private}.fmu_src.periodic_map_mode", fromlist=["SHIPPED_TABLES"])
     tables.build_map(parameters.CompressorParameters(**values), operating_rpm=operating,
                      settings=tables.MapSettings(table_speed_rpm=operating), cache_dir=mode.SHIPPED_TABLES)

@@ -23,7 +23,7 @@ from .compile_cache import KernelCache
 def kernel(function=None, *, allocates: bool = False, inline: bool = False):
     """Compile `function` for the time loop (module docstring); `allocates=True` if it creates arrays or views;
     `inline=True` to compile it into each caller (numba's inline="always"), for a small function on the loop's path
-    whose call would otherwise copy its arguments once more (the method dispatchers of mechanics.integrators)."""
+    whose call would otherwise copy its arguments once more (the method dispatchers of mechanics.loop.integrators)."""
     options = dict(error_model="numpy")
     if not allocates:
         options["_nrt"] = False

@@ -8,7 +8,7 @@ _install_compile_cache(Path(__file__).parent)       # before any kernel is defin
 from .errors import ContactLawWarning, IntegrationError  # noqa: E402
 from .parameters import REFERENCE_NUMERICS, CompressorParameters, declarations
 from .simulation import History, Simulation, SimulationState
-from .speed import SpeedLaw, constant_speed, cycloidal_ramp, linear_ramp
+from .loop.speed import SpeedLaw, constant_speed, cycloidal_ramp, linear_ramp
 
 __all__ = ["REFERENCE_NUMERICS", "CompressorParameters", "ContactLawWarning", "declarations", "History", "IntegrationError",
            "Simulation", "SimulationState", "SpeedLaw", "constant_speed", "cycloidal_ramp", "linear_ramp"]

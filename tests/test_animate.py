@@ -28,7 +28,7 @@ import pytest
 from PIL import Image, ImageChops
 
 from rotary_vane.mechanics import CompressorParameters
-from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
 
 PROJECT_DIR = Path(__file__).resolve().parents[1]
 ANIMATE_SCRIPT = PROJECT_DIR / "examples" / "animate.py"

@@ -3,8 +3,8 @@ power of docs/model.md §6.2/§6.4, discretised boundaries, the lobe decompositi
 symmetry and the volumes left at the valleys.
 
 References are independent of `mechanics.chambers`: finite differences, shoelace areas of finely discretised
-boundaries (stator from the conftest closed forms), closed-form vane areas, `geometry.lobe_area`, scipy quadrature
-of 1/2 S x S', and the conftest reference gas power.
+boundaries (stator from the closed forms of reference_formulas.py), closed-form vane areas, `geometry.lobe_area`, scipy
+quadrature of 1/2 S x S', and the reference gas power of reference_formulas.py.
 """
 import math
 
@@ -13,12 +13,12 @@ import pytest
 from scipy import integrate
 
 from rotary_vane.mechanics import CompressorParameters
-from rotary_vane.mechanics.chamber_geometry import sector_table, stator_sectors
-from rotary_vane.mechanics.dynamics import chamber_geometry_of
-from rotary_vane.mechanics.displacement import displacement
-from rotary_vane.mechanics.geometry import closest_pitch_parameter, law_arguments, lobe_area, stator_point
-from rotary_vane.mechanics.machine import machine_from_parameters
-from rotary_vane.mechanics.pressure_source import thin_vane_volume
+from rotary_vane.mechanics.geometry.chamber_geometry import sector_table, stator_sectors
+from rotary_vane.mechanics.loop.dynamics import chamber_geometry_of
+from rotary_vane.mechanics.geometry.displacement import displacement
+from rotary_vane.mechanics.geometry.stator import closest_pitch_parameter, law_arguments, lobe_area, stator_point
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
+from rotary_vane.mechanics.gas.pressure_source import thin_vane_volume
 
 LOBES = (3, 5, 7, 9)
 OMEGA = 1500.0 * math.pi / 30.0
@@ -62,7 +62,7 @@ def vane_path(m, theta0, omega, lift=0.0, lift_rate=0.0, offset=0.0, offset_rate
 
 
 def geometry(state, m, lobe_start=0.0):
-    """mechanics.dynamics.chamber_geometry_of of a path state (u* is found by the kernel's own search)."""
+    """mechanics.loop.dynamics.chamber_geometry_of of a path state (u* is found by the kernel's own search)."""
     return chamber_geometry_of(state["x"], state["y"], state["phi"], state["vx"], state["vy"], state["phi_dot"],
                                state["theta"], state["omega"], lobe_start, m, sector_table(m))
 
@@ -209,7 +209,7 @@ def test_back_chamber_volume_and_rate(clearance, check):
 @pytest.mark.parametrize("clearance", [0.0, 0.1e-3])
 def test_wall_part_is_the_unit_pressure_gas_power(clearance, contact_reference, check):
     """dV_sigma/dt - gap_sigma equals the gas power of docs/model.md §6.2/§6.4 at p_sigma = 1, other pressures 0, from the
-    independent conftest reference, so P_gas = sum p_sigma (dV_sigma/dt - gap_sigma)."""
+    independent reference of reference_formulas.py, so P_gas = sum p_sigma (dV_sigma/dt - gap_sigma)."""
     params, m = setup(3, clearance=clearance)
     scale = OMEGA * lobe_volume(params)
     for theta0, lift, offset, tilt in ((0.02, 0.0, 0.0, 0.0), (0.15, 10e-6, 20e-6, 1e-3), (1.0, -5e-6, -30e-6, -2e-3),
@@ -281,7 +281,7 @@ def nominal_state(m, theta):
 @pytest.mark.parametrize("lobes", LOBES)
 def test_nominal_volumes_match_discretised_boundaries(lobes, reference, check):
     """c = 0, nominal pose: V_L and V_T equal L times the shoelace areas of finely discretised boundaries
-    (Richardson-extrapolated), with the stator from the conftest closed forms."""
+    (Richardson-extrapolated), with the stator from the closed forms of reference_formulas.py."""
     params, m = setup(lobes)
     pitch = reference.HarmonicPitch(m.base_radius, params.stroke, lobes)
     lobe = 2.0 * math.pi / lobes

@@ -1,6 +1,6 @@
 """Contact detection and contact laws: docs/model.md §11 T5 (normal force), T6 (friction), T7 (mirror symmetry),
 T8 (clearance geometry), and the six-region detection against an independent docs/model.md §4 reference
-(tests/conftest.py)."""
+(tests/reference_formulas.py)."""
 import math
 import os
 import shutil
@@ -14,14 +14,14 @@ from scipy import integrate
 from scipy.integrate import solve_ivp
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.contact import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL, slot_bottom_contact,
-                                            slot_floor_contact,
-                                           slot_mouth_contact, tip_contact)
-from rotary_vane.mechanics.contact_laws import (elastic_force, friction_coefficient_effective, hertz_stiffness,
-                                                normal_force)
-from rotary_vane.mechanics.kinematics import pose_of
-from rotary_vane.mechanics.machine import machine_from_parameters
-from rotary_vane.mechanics.regions import MEMORY_SLOTS, REGION_COUNT
+from rotary_vane.mechanics.contact.detection import (EDGE_ON_ARC, EDGE_ON_FACE, NO_CANDIDATE, TIP_ON_WALL,
+                                                     slot_bottom_contact, slot_floor_contact,
+                                                     slot_mouth_contact, tip_contact)
+from rotary_vane.mechanics.contact.contact_laws import (elastic_force, friction_coefficient_effective, hertz_stiffness,
+                                                        normal_force)
+from rotary_vane.mechanics.geometry.kinematics import pose_of
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
+from rotary_vane.mechanics.contact.regions import MEMORY_SLOTS, REGION_COUNT
 
 RPM = 2 * math.pi / 60
 E_STAR_MODEL_DOC = 113.7e9        # docs/model.md §5.2 / §9
@@ -210,7 +210,7 @@ def test_every_force_law_is_defined_over_the_whole_penetration_range(check, stif
     """docs/model.md §5.2: for penetrations 1e-12 .. 1e-3 m and both curvature signs each elastic law gives a finite,
     strictly increasing force, a stored energy equal to int_0^delta F d delta (adaptive quadrature, split at the
     line law's validity limit) to 1e-9, and an excess that is 0 inside the law's range and delta - delta_s beyond."""
-    from rotary_vane.mechanics.contact_laws import line_contact_constants, line_contact_limit
+    from rotary_vane.mechanics.contact.contact_laws import line_contact_constants, line_contact_limit
     m = machine_from_parameters(CompressorParameters(stiffness_model=stiffness_model))
     deltas = np.logspace(-12, -3, 400)
     values = np.array([elastic_force(d, vane, other, m) for d in deltas])
@@ -547,7 +547,8 @@ def test_tip_on_nominal_path_has_stator_gap(check, reference, lobes, clearance):
     check("T8 |delta_S - (g - c_S)| [m]", worst, 1e-15)
 
 
-# docs/model.md §14.3, done to a copy of the project's packages: the recipe's two edits of mechanics/contact_laws.py
+# docs/model.md §14.3, done to a copy of the project's packages: the recipe's two edits of
+# mechanics/contact/contact_laws.py
 RECIPE_EDITS = (
     ('FRICTION_MODELS = Choices("threlfall", "ambrosio")',
      'FRICTION_MODELS = Choices("threlfall", "ambrosio", "linear_ramp")'),
@@ -561,8 +562,8 @@ RECIPE_EDITS = (
 USE_THE_NEW_LAW = r'''
 import dataclasses, math, sys
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.contact_laws import LINEAR_RAMP, friction_coefficient_effective
-from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.contact.contact_laws import LINEAR_RAMP, friction_coefficient_effective
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
 from rotary_vane.mechanics.parameters import markdown_table
 from rotary_vane.fmu_src.variables import declared_parameter
 assert __import__("rotary_vane.mechanics").mechanics.__file__.startswith(sys.argv[1])      # the copy, not the project
@@ -595,13 +596,14 @@ print("ok")
 def project_copy_with_a_new_friction_law(folder: Path) -> Path:
     """A copy of the packages (and pyproject.toml, which makes it a checkout) with RECIPE_EDITS applied."""
     project = Path(__file__).resolve().parent.parent
-    for package in ("rotary_vane", "thermo", "mechanics", "fmu_src"):
+    for package in ("rotary_vane", "kernels", "thermo", "mechanics", "fmu_src"):
         shutil.copytree(project / package, folder / package, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy2(project / "pyproject.toml", folder / "pyproject.toml")
-    laws = folder / "mechanics" / "contact_laws.py"
+    laws = folder / "mechanics" / "contact" / "contact_laws.py"
     source = laws.read_text()
     for old, new in RECIPE_EDITS:
-        assert source.count(old) == 1, f"docs/model.md §14.3 no longer matches mechanics/contact_laws.py: {old!r}"
+        assert source.count(old) == 1, (f"docs/model.md §14.3 no longer matches mechanics/contact/contact_laws.py: "
+                                        f"{old!r}")
         source = source.replace(old, new)
     laws.write_text(source)
     return folder

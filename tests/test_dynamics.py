@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp
-from rotary_vane.mechanics.displacement import displacement
-from rotary_vane.mechanics.geometry import law_arguments
-from rotary_vane.mechanics.outputs import REAL_GAS_COLUMNS
+from rotary_vane.mechanics.geometry.displacement import displacement
+from rotary_vane.mechanics.geometry.stator import law_arguments
+from rotary_vane.mechanics.loop.outputs import REAL_GAS_COLUMNS
 from rotary_vane.mechanics.performance import lobes, revolutions
-from rotary_vane.mechanics.regions import REGION_COUNT
+from rotary_vane.mechanics.contact.regions import REGION_COUNT
 
 CLEARANCES = (0.0, 0.02e-3, 0.05e-3, 0.1e-3, 0.2e-3)
 INTEGRATORS = ("dopri5", "abm4")

@@ -8,8 +8,8 @@ import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation
 from rotary_vane.mechanics.performance import revolutions
-from rotary_vane.mechanics.regions import SLOT_REGIONS, TIP_REGIONS
-from rotary_vane.mechanics.windows import MASKS
+from rotary_vane.mechanics.contact.regions import SLOT_REGIONS, TIP_REGIONS
+from rotary_vane.mechanics.loop.windows import MASKS
 
 MODELS = ("polytropic", "ideal_gas_table", "real_gas")
 CLEARANCES = (0.0, 0.05e-3, 0.2e-3)

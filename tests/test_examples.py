@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 import fmu_helpers as H
-from rotary_vane.mechanics.regions import REGION_COUNT
+from rotary_vane.mechanics.contact.regions import REGION_COUNT
 
 EXAMPLES = H.PROJECT_DIR / "examples"
 TIMEOUT = 600.0                                  # s per harness run on a busy machine (a cold compile included)

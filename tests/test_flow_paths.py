@@ -1,10 +1,11 @@
 """The flow paths of the real-gas chambers (issue 14 items 2 and 3, docs/model.md §7.4) against independent
 calculations.
 
-References: CoolProp's own isentropic expansion (conftest.IsentropicExpansion: PS flashes, the choked flux by
-numerical maximisation), the ideal-gas nozzle formula written here, PDSim's leakage correlation
-(conftest.pdsim_mdot_ratio), the slot and tip gaps of the reference contact detection (conftest) and the
-friction-equivalent lengths by quadrature of delta^3/h^3 over the independent harmonic stator (conftest.HarmonicPitch).
+References: CoolProp's own isentropic expansion (reference_formulas.IsentropicExpansion: PS flashes, the choked
+flux by numerical maximisation), the ideal-gas nozzle formula written here, PDSim's leakage correlation
+(reference_formulas.pdsim_mdot_ratio), the slot and tip gaps of the reference contact detection (reference_formulas)
+and the friction-equivalent lengths by quadrature of delta^3/h^3 over the independent harmonic stator
+(reference_formulas.HarmonicPitch).
 Then: sign and symmetry, closed gaps, the metastable-throat status, mass and energy closure of a run with every path
 open, and the default model's per-revolution figures.
 """
@@ -13,13 +14,14 @@ import math
 import CoolProp
 import numpy as np
 import pytest
-from conftest import HarmonicPitch, IsentropicExpansion, VaneGeometry, pdsim_mdot_ratio, reference_slot_bottom, \
-    reference_slot_mouth, reference_tip, rot, perp
 from scipy.integrate import quad
 
+from reference_formulas import (HarmonicPitch, IsentropicExpansion, VaneGeometry, pdsim_mdot_ratio, perp,
+                                reference_slot_bottom, reference_slot_mouth, reference_tip, rot)
+
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.geometry import valley_seal_length
-from rotary_vane.mechanics.layout import GAS_BLOCK, GAS_STATE_INVALID
+from rotary_vane.mechanics.geometry.stator import valley_seal_length
+from rotary_vane.mechanics.loop.layout import GAS_BLOCK, GAS_STATE_INVALID
 from rotary_vane.mechanics.performance import revolutions
 from rotary_vane.thermo.chamber_model import (CONSTANT_FIELDS, LEADING_MASS, LEADING_TEMPERATURE, PATH_FIELDS,
                                               TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs,

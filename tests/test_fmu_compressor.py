@@ -216,8 +216,8 @@ fmu_rows = host.run(0.0, step, steps, speed)
 resources = pathlib.Path(host.unzipdir) / "resources"
 private = next(p.name for p in resources.iterdir() if p.is_dir() and p.name.startswith("rotary_vane_"))
 mechanics = importlib.import_module(private + ".mechanics")
-layout = importlib.import_module(private + ".mechanics.layout")
-outputs = importlib.import_module(private + ".mechanics.outputs")
+layout = importlib.import_module(private + ".mechanics.loop.layout")
+outputs = importlib.import_module(private + ".mechanics.loop.outputs")
 params = mechanics.CompressorParameters(slot_clearance=5e-5, stator_clearance=5e-5, pressure_model="ideal_gas_table")
 sim = mechanics.Simulation(params, mechanics.constant_speed(1500.0), initial_angle=0.0, keep_history=False,
                            table_speed_rpm=1500.0)
@@ -496,9 +496,9 @@ def other_version(tmp_path_factory) -> Path:
     package_root = root / "rotary_vane"
     package_root.mkdir()
     shutil.copy(H.PROJECT_DIR / "rotary_vane" / "__init__.py", package_root / "__init__.py")
-    for package in ("thermo", "mechanics", "fmu_src"):
+    for package in ("kernels", "thermo", "mechanics", "fmu_src"):
         shutil.copytree(H.PROJECT_DIR / package, package_root / package, ignore=shutil.ignore_patterns("__pycache__"))
-    edits = {"mechanics/speed.py": ("RPM = 2.0 * math.pi / 60.0", "RPM = 2.0 * math.pi / 30.0"),
+    edits = {"mechanics/loop/speed.py": ("RPM = 2.0 * math.pi / 60.0", "RPM = 2.0 * math.pi / 30.0"),
              "fmu_src/slave.py": ('VERSION = "0.1.0"', 'VERSION = "0.0.9"')}
     for relative, (old, new) in edits.items():
         text = (package_root / relative).read_text()
@@ -511,9 +511,9 @@ def test_fmu_runs_its_bundled_code_in_a_host_with_another_version_of_the_project
                                                                                   other_version):
     """A host that imported another version of this project (its `rotary_vane.mechanics`, `.thermo` and
     `.fmu_src`, with a different rpm conversion) runs the FMU with bit-identical results."""
-    modules = ["rotary_vane", "rotary_vane.thermo", "rotary_vane.mechanics", "rotary_vane.mechanics.speed",
+    modules = ["rotary_vane", "rotary_vane.thermo", "rotary_vane.mechanics", "rotary_vane.mechanics.loop.speed",
                "rotary_vane.fmu_src", "rotary_vane.fmu_src.compressor"]
-    extra = "assert foreign['rotary_vane.mechanics.speed'].RPM > 0.2, 'not the other version'"
+    extra = "assert foreign['rotary_vane.mechanics.loop.speed'].RPM > 0.2, 'not the other version'"
     run = H.run_host(foreign_host(fmu, [str(other_version)], modules, extra), env=env)
     check_foreign_host(run, short_reference, "other version imported")
 

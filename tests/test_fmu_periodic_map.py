@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fmu_helpers as H
-from rotary_vane.mechanics.periodic_map import initial_speed_grid
+from rotary_vane.mechanics.reduced.periodic_map import initial_speed_grid
 
 GRID_SPEED = float(initial_speed_grid(1500.0)[5])          # a speed of the default grid (about 1329 rpm)
 BETWEEN_SPEED = 1400.0                                   # between grid speeds (also after refinement)

@@ -12,11 +12,11 @@ from scipy import integrate
 from scipy.optimize import brentq, minimize_scalar
 
 from rotary_vane.mechanics import CompressorParameters
-from rotary_vane.mechanics import geometry
-from rotary_vane.mechanics.displacement import DISPLACEMENT_LAWS, displacement
-from rotary_vane.mechanics.geometry import (closest_pitch_parameter, law_arguments, lobe_area, pitch_curve, pitch_frame,
-                                stator_point, stator_regularity)
-from rotary_vane.mechanics.machine import machine_from_parameters, vane_mass_properties
+from rotary_vane.mechanics.geometry import stator
+from rotary_vane.mechanics.geometry.displacement import DISPLACEMENT_LAWS, displacement
+from rotary_vane.mechanics.geometry.stator import (closest_pitch_parameter, law_arguments, lobe_area, pitch_curve,
+                                                   pitch_frame, stator_point, stator_regularity)
+from rotary_vane.mechanics.loop.machine import machine_from_parameters, vane_mass_properties
 
 H = 5.0e-3            # docs/model.md §9 stroke
 R_ROTOR = 30.0e-3
@@ -510,7 +510,7 @@ def test_closest_point_brent_fallback(check, reference, lobes):
         check("T1b Brent fallback |C(u*) - C(u_brute, polished)| [m]", point_error(reference, lobes, u, u_ref), 1e-12)
 
 
-@pytest.mark.skipif(not hasattr(geometry, "closest_pitch_frame"), reason="no closest_pitch_frame in this version")
+@pytest.mark.skipif(not hasattr(stator, "closest_pitch_frame"), reason="no closest_pitch_frame in this version")
 def test_closest_pitch_frame_against_brute_force(check, reference):
     """The time loop's fused closest-point + frame routine (if present) agrees with the brute force and the
     independent frame at u*."""
@@ -521,7 +521,7 @@ def test_closest_pitch_frame_against_brute_force(check, reference):
     brute = brute_force_closest(reference, lobes, targets, polish=True)
     for (tx, ty), u_ref in zip(targets, brute):
         for u_start in (math.atan2(ty, tx), fallback_start(ref, tx, ty)):
-            u, cx, cy, nx, ny, _, kappa = geometry.closest_pitch_frame(tx, ty, u_start, *args)
+            u, cx, cy, nx, ny, _, kappa = stator.closest_pitch_frame(tx, ty, u_start, *args)
             check("T1b closest_pitch_frame |C(u*) - C(u_brute, polished)| [m]", point_error(reference, lobes, u, u_ref),
                   1e-12)
             assert np.allclose((cx, cy), ref.point(u), rtol=0, atol=1e-15)

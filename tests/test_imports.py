@@ -107,7 +107,8 @@ def test_every_project_import_resolves_to_a_file(source):
 
 def test_the_resolver_finds_a_broken_import(tmp_path):
     """The check can fail: a relative import of a module that does not exist resolves to nothing."""
-    node = ast.parse("from ..thermo.no_such_module import x").body[0]
-    assert resolve(ROOT / "mechanics" / "dynamics.py", node, package_dir())[0] is None
-    node = ast.parse("from ..kernels.kernel import kernel").body[0]
-    assert resolve(ROOT / "mechanics" / "dynamics.py", node, package_dir())[0] == ROOT / "kernels" / "kernel.py"
+    dynamics = ROOT / "mechanics" / "loop" / "dynamics.py"
+    node = ast.parse("from ...thermo.no_such_module import x").body[0]
+    assert resolve(dynamics, node, package_dir())[0] is None
+    node = ast.parse("from ...kernels.kernel import kernel").body[0]
+    assert resolve(dynamics, node, package_dir())[0] == ROOT / "kernels" / "kernel.py"

@@ -1,16 +1,16 @@
 """Kinematics and the equations of motion: speed input (docs/model.md §3.2), reported kinematics (docs/model.md §11 T3) and the
 constraint consistency of the reduced form (T4), with the generalized forces recomputed independently from
-docs/model.md §4-§6.2 (tests/conftest.py)."""
+docs/model.md §4-§6.2 (tests/reference_formulas.py)."""
 import math
 
 import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp, linear_ramp
-from rotary_vane.mechanics.kinematics import pose_of, reported_kinematics
-from rotary_vane.mechanics.machine import machine_from_parameters
-from rotary_vane.mechanics.regions import MEMORY_SLOTS
-from rotary_vane.mechanics.speed import rotor_motion
+from rotary_vane.mechanics.geometry.kinematics import pose_of, reported_kinematics
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
+from rotary_vane.mechanics.contact.regions import MEMORY_SLOTS
+from rotary_vane.mechanics.loop.speed import rotor_motion
 
 RPM = 2 * math.pi / 60
 

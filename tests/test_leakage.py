@@ -6,15 +6,16 @@ References, independent of the code under test:
   is transcribed below in PDSim's own form (coefficient list, Lstar = t/0.005, delta_star = delta/10e-6) and the
   module must reproduce it wherever it is >= 1 (the module clamps it at 1, a documented decision).
 - closed forms: the valley curvature from the offset stator curve of docs/model.md §2.4-§2.5, evaluated numerically
-  with the independent harmonic pitch curve of conftest.py; the friction integral by quadrature; the Fanno
+  with the independent harmonic pitch curve of reference_formulas.py; the friction integral by quadrature; the Fanno
   reference against the incompressible limit and a direct ODE integration.
 """
 import math
 
 import numpy as np
 import pytest
-from conftest import HarmonicPitch, pdsim_mdot_ratio
 from scipy.integrate import quad, solve_ivp
+
+from reference_formulas import HarmonicPitch, pdsim_mdot_ratio
 
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, signed_nozzle_flow
 from rotary_vane.thermo.fluid import Fluid, coolprop
@@ -254,7 +255,7 @@ def test_correlation_and_fanno_reference_agree_where_pdsim_fitted_it(ideal_r134a
 @pytest.mark.parametrize("clearance", [0.0, 0.2e-3])
 @pytest.mark.parametrize("lobes", [3, 5])
 def test_valley_seal_radius_from_the_stator_contour(clearance, lobes):
-    """Radial gap |S(u)| - R_r of the offset stator S = C + d n (docs/model.md §2.5, conftest's harmonic pitch
+    """Radial gap |S(u)| - R_r of the offset stator S = C + d n (docs/model.md §2.5, reference_formulas' harmonic pitch
     curve) near the valley, fitted as c + b phi^2 over the polar angle phi: R = R_r^2 / (2 b)."""
     pitch = HarmonicPitch(ROTOR_RADIUS - TIP_RADIUS, STROKE, lobes)
     offset = TIP_RADIUS + clearance

@@ -1,13 +1,13 @@
-"""Every output is declared once (mechanics.outputs): the kernel's column layout, the FMU variables, the
+"""Every output is declared once (mechanics.loop.outputs): the kernel's column layout, the FMU variables, the
 periodic-map channels and the documentation tables all follow from the declarations, and every declared figure is
 something the per-revolution summary defines."""
 import dataclasses
 
-from rotary_vane.mechanics import outputs
-from rotary_vane.mechanics.outputs import (FIGURES, STEP_OUTPUTS, Figure, Output, fmu_outputs, index_layout,
-                                           markdown_table)
+from rotary_vane.mechanics.loop import outputs
+from rotary_vane.mechanics.loop.outputs import (FIGURES, STEP_OUTPUTS, Figure, Output, fmu_outputs, index_layout,
+                                                markdown_table)
 from rotary_vane.mechanics.performance import WindowSummary
-from rotary_vane.mechanics.regions import REGION_COUNT, REGION_LABELS, REGIONS
+from rotary_vane.mechanics.contact.regions import REGION_COUNT, REGION_LABELS, REGIONS
 
 
 def test_adding_an_output_is_one_declaration():
@@ -53,11 +53,13 @@ path = sys.argv[1]
 source = open(path).read().replace(
     "REGION_COUNT = len(REGIONS)",
     'REGIONS = REGIONS + (Region("c9", "test corner", ROTOR, 7, FLOOR_CORNER, 1.0),)\nREGION_COUNT = len(REGIONS)')
-module = types.ModuleType("rotary_vane.mechanics.regions")
+module = types.ModuleType("rotary_vane.mechanics.contact.regions")
 module.__file__ = path
 exec(compile(source, path, "exec"), module.__dict__)
 sys.modules[module.__name__] = module
-from rotary_vane.mechanics import layout, modes, outputs, performance, windows
+from rotary_vane.mechanics import performance
+from rotary_vane.mechanics.contact import modes
+from rotary_vane.mechanics.loop import layout, outputs, windows
 assert "normal_force_9" in outputs.OUTPUT_NAMES and "penetration_rate_9" in outputs.OUTPUT_NAMES
 made = {o.name: o for o in outputs.fmu_outputs()}
 assert made["contact_force_9"].source == "normal_force_9" and "region c9" in made["contact_force_9"].description
@@ -70,14 +72,14 @@ print("ok")
 
 
 def test_adding_a_region_is_one_declaration():
-    """docs/model.md §14.1: a ninth region declared in the table (a copy of mechanics/regions.py with one more
+    """docs/model.md §14.1: a ninth region declared in the table (a copy of mechanics/contact/regions.py with one more
     entry, loaded in a fresh interpreter) appears in the output columns, the FMU outputs, the docs table, the
     memory layout, the mode masks and the rotor-force group, with no other edit."""
     import subprocess
     import sys
     from pathlib import Path
 
-    import rotary_vane.mechanics.regions as regions
+    import rotary_vane.mechanics.contact.regions as regions
     result = subprocess.run([sys.executable, "-c", ADD_A_REGION, str(Path(regions.__file__))], capture_output=True,
                             text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-2000:]

@@ -34,7 +34,8 @@ def test_the_wheel_installs_one_top_level_package(tmp_path):
         names = archive.namelist()
     top_level = {name.split("/")[0] for name in names}
     assert {entry for entry in top_level if not entry.endswith(".dist-info")} == {"rotary_vane"}, sorted(top_level)
-    for package in ("thermo", "mechanics", "fmu_src", "examples"):
+    for package in ("kernels", "thermo", "mechanics", "mechanics/geometry", "mechanics/contact", "mechanics/gas",
+                    "mechanics/loop", "mechanics/reduced", "fmu_src", "examples"):
         assert f"rotary_vane/{package}/__init__.py" in names
 
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters
-from rotary_vane.mechanics.periodic_map import (CHANNELS, FIGURES, PROJECT_DIR, TORQUE, MapSettings, MapTable,
-                                                build_map, cache_key, chord_deviation,
-                                                curvature_refinement)
+from rotary_vane.mechanics.reduced.periodic_map import (CHANNELS, FIGURES, PROJECT_DIR, TORQUE, MapSettings, MapTable,
+                                                        build_map, cache_key, chord_deviation,
+                                                        curvature_refinement)
 from rotary_vane.kernels.compile_cache import PROJECT_PACKAGES
 
 SAMPLES = 720
@@ -104,7 +104,7 @@ def test_cache_key_changes_with_a_parameter_a_setting_and_a_source(tmp_path):
     for package in PROJECT_PACKAGES:
         shutil.copytree(PROJECT_DIR / package, copy / package, ignore=shutil.ignore_patterns("__pycache__"))
     assert cache_key(base, [1500.0], settings(), copy) == key
-    target = copy / "mechanics" / "contact.py"
+    target = copy / "mechanics" / "contact" / "detection.py"
     target.write_text(target.read_text() + "\n# a changed source\n")
     assert cache_key(base, [1500.0], settings(), copy) != key
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters
-from rotary_vane.mechanics.periodic_map import MapSettings
-from rotary_vane.mechanics.rating import (LBM_PER_KG, ahri_terms, evaluate_ahri, fahrenheit, fit_ahri, fit_report,
-                                          rating_map, rating_parameters)
+from rotary_vane.mechanics.reduced.periodic_map import MapSettings
+from rotary_vane.mechanics.reduced.rating import (LBM_PER_KG, ahri_terms, evaluate_ahri, fahrenheit, fit_ahri,
+                                                  fit_report, rating_map, rating_parameters)
 
 
 def test_fit_recovers_a_known_cubic_exactly():

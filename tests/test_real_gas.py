@@ -13,8 +13,8 @@ from scipy.optimize import brentq
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
 from rotary_vane.mechanics.errors import IntegrationError
-from rotary_vane.mechanics.layout import GAS_BLOCK
-from rotary_vane.mechanics.outputs import OUTPUT_INDEX
+from rotary_vane.mechanics.loop.layout import GAS_BLOCK
+from rotary_vane.mechanics.loop.outputs import OUTPUT_INDEX
 from rotary_vane.mechanics.performance import revolutions
 from rotary_vane.thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND, chamber_derivatives, signed_nozzle_flow

@@ -12,7 +12,8 @@ import warnings
 import numba
 import numpy as np
 import pytest
-from conftest import IsentropicExpansion
+
+from reference_formulas import IsentropicExpansion
 
 from rotary_vane.thermo.control_volume import LINEAR_FLOW_BAND
 from rotary_vane.thermo.fluid import Fluid, coolprop, typical_operating_point

@@ -9,8 +9,8 @@ import pytest
 from rotary_vane.mechanics import (CompressorParameters, IntegrationError, Simulation, constant_speed, cycloidal_ramp,
                        linear_ramp)
 from rotary_vane.mechanics.performance import revolutions
-from rotary_vane.mechanics.regions import REGION_COUNT
-from rotary_vane.mechanics.speed import RPM
+from rotary_vane.mechanics.contact.regions import REGION_COUNT
+from rotary_vane.mechanics.loop.speed import RPM
 
 REVOLUTION = 0.04          # s at 1500 rpm
 

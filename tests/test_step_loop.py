@@ -9,9 +9,10 @@ import textwrap
 import numpy as np
 import pytest
 
-from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, integrators
-from rotary_vane.mechanics.machine import machine_from_parameters
-from rotary_vane.mechanics.run_cost import revolution_cost
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+from rotary_vane.mechanics.loop import integrators
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
+from rotary_vane.mechanics.loop.run_cost import revolution_cost
 
 METHODS = ("dopri5", "abm4")
 HOOKS = ("begin", "bounded_step", "attempt", "after_rejection", "after_acceptance")

@@ -8,7 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
 CONSTANT, LINEAR, CYCLOIDAL = 0, 1, 2
 SHAPES = {"constant": CONSTANT, "linear": LINEAR, "cycloidal": CYCLOIDAL}

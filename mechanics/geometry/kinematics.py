@@ -1,17 +1,17 @@
 """The vane's pose and velocity and the rotor's motion at one instant, and the kinematics reported to users
 (docs/model.md §3.1, §3.4).
 
-`vane_pose` is the first stage of every right-hand-side evaluation (mechanics.dynamics): it turns the state vector
+`vane_pose` is the first stage of every right-hand-side evaluation (mechanics.loop.dynamics): it turns the state vector
 and the speed law into the named quantities every later stage reads.
 """
 import math
 from typing import NamedTuple
 
 
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
-from .layout import ANGLE, ANGULAR_VELOCITY, VX, VY, X, Y
-from .speed import rotor_motion
+from ..loop.layout import ANGLE, ANGULAR_VELOCITY, VX, VY, X, Y
+from ..loop.speed import rotor_motion
 
 
 class VanePose(NamedTuple):

@@ -1,6 +1,6 @@
 """What the time loop reads of the gas, per pressure model (docs/model.md §6.1, §7).
 
-- Level 0 / 0.5 (`polytropic`, `ideal_gas_table`): the p_L(phase) table of mechanics.pressure_source; the chamber
+- Level 0 / 0.5 (`polytropic`, `ideal_gas_table`): the p_L(phase) table of mechanics.gas.pressure_source; the chamber
   model gets placeholders it never reads.
 - Level 1 (`real_gas`): the operating point (thermo.operating_point: suction state, envelope, h_2s, references of
   the per-revolution figures), the fluid's (T, ln rho) property table and its real-gas nozzle table for the point's
@@ -17,18 +17,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..thermo.chamber_model import chamber_constants, chamber_flow_work
-from ..thermo.gas_reference import GasReference
-from ..thermo.flow_paths import FlowNode
-from ..thermo.leakage import LEAKAGE_LAWS
-from ..thermo.operating_point import operating_point_for
-from ..thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
+from ...thermo.chamber_model import chamber_constants, chamber_flow_work
+from ...thermo.gas_reference import GasReference
+from ...thermo.flow_paths import FlowNode
+from ...thermo.leakage import LEAKAGE_LAWS
+from ...thermo.operating_point import operating_point_for
+from ...thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
     table_state
-from ..thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
-                                               nozzle_table_arrays, nozzle_table_for, real_gas_mass_flux)
+from ...thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
+                                       nozzle_table_arrays, nozzle_table_for, real_gas_mass_flux)
 
-from .geometry import lobe_area, valley_seal_length
-from .parameters import CompressorParameters
+from ..geometry.stator import lobe_area, valley_seal_length
+from ..parameters import CompressorParameters
 from .pressure_source import leading_pressure_table
 
 

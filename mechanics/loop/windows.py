@@ -17,11 +17,11 @@ import math
 
 import numpy as np
 
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
-from .contact import CANDIDATE_TYPES
+from ..contact.detection import CANDIDATE_TYPES
 from .outputs import O, OUTPUT_SIZE
-from .regions import REGION_COUNT
+from ..contact.regions import REGION_COUNT
 
 MASKS = 1 << REGION_COUNT
 MODE_KEYS = MASKS * CANDIDATE_TYPES * CANDIDATE_TYPES

@@ -2,14 +2,14 @@
 
 The loads are linear in the three pressures (leading p_L, trailing p_T, back chamber p_b), so each RHS evaluation
 computes them once per unit pressure (`gas_load_basis`) and combines them (`combine`). The same unit-pressure
-powers are the wetted-wall part of the chamber volume rates (mechanics.chamber_geometry, docs/model.md §7.2).
+powers are the wetted-wall part of the chamber volume rates (mechanics.geometry.chamber_geometry, docs/model.md §7.2).
 
 The vane is loaded on its exposed leading/trailing flat faces, on its two tip arcs (split at the contact angle
 psi_c, never clipped) and on its bottom face (back-chamber pressure); the rotor on the slot wall between a
 recessed tip junction and the mouth, and on the back-chamber walls; the stator on the active lobe's wall.
 """
 from typing import NamedTuple
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
 
 

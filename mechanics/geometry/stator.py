@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
 from .displacement import DISPLACEMENT_LAWS, displacement, displacement_given_trig
 

@@ -5,7 +5,7 @@ with RK4 start (docs/model.md §8.2).
 what every method shares, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
 to land on them; a step is rejected when its error is too large, when a contact opened deeper than
 max_onset_penetration, or when the state is invalid; after an accepted step the memory (warm start, impact
-velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.windows) and,
+velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.loop.windows) and,
 at a valley, the lobe record written and the chambers switched. A method is a set of kernels with one signature
 each (begin, bounded step, attempt, after rejection, after acceptance: the block "The methods" below):
 `dopri5_*` from the tableau below (as scipy's RungeKutta classes do), `abm4_*` as Adams-Bashforth predictor and
@@ -16,19 +16,19 @@ import math
 
 import numpy as np
 
-from ..kernels.kernel import copy_values, kernel
-from ..thermo.chamber_model import gas_tolerance, switch_chambers
-from ..thermo.property_table import table_from_arrays
-from ..thermo.real_gas_nozzle import nozzle_table_from_arrays
+from ...kernels.kernel import copy_values, kernel
+from ...thermo.chamber_model import gas_tolerance, switch_chambers
+from ...thermo.property_table import table_from_arrays
+from ...thermo.real_gas_nozzle import nozzle_table_from_arrays
 
-from .chamber_geometry import SectorTable
+from ..geometry.chamber_geometry import SectorTable
 from .dynamics import KernelContext, chamber_inputs_at, evaluate
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
                      MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
                      RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_LIMIT, X, Y)
 from .machine import ABM4, REAL_GAS_MODEL
 from .outputs import O
-from .regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
+from ..contact.regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
 from .speed import ramp_end_time, rotor_motion, time_of_angle
 from .windows import accumulate, close_window
 
@@ -386,7 +386,7 @@ def _cross_valley(t, y, memory, ctx, real_gas):
 def smallest_step(t, m):
     """h_min = 16 eps max(|t|, T_c) (docs/model.md §8.2): the step below which t + h no longer differs from t by
     more than a few units of rounding, so the error control cannot be met by any smaller step; the contact period
-    T_c (mechanics.machine.contact_period) is the time scale near t = 0."""
+    T_c (mechanics.loop.machine.contact_period) is the time scale near t = 0."""
     return TIME_RESOLUTION * max(abs(t), m.contact_period)
 
 
@@ -398,7 +398,7 @@ def _step_rejected(err, failure, out, memory, m):
 
 @kernel
 def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
-    """Accumulate the lobe window (mechanics.windows) and write the output row (row 0 unless keep_rows)."""
+    """Accumulate the lobe window (mechanics.loop.windows) and write the output row (row 0 unless keep_rows)."""
     accumulate(window, run_dwell, out)
     row = rows if keep_rows else 0
     for i in range(out.size):

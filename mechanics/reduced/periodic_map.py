@@ -26,18 +26,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..kernels.compile_cache import cache_root, source_hash
+from ...kernels.compile_cache import cache_root, source_hash
 
-from .outputs import REVOLUTION, STEP, fmu_outputs
-from .parameters import CompressorParameters
-from .performance import revolutions
-from .simulation import Simulation
-from .speed import RPM, constant_speed
+from ..loop.outputs import REVOLUTION, STEP, fmu_outputs
+from ..parameters import CompressorParameters
+from ..performance import revolutions
+from ..simulation import Simulation
+from ..loop.speed import RPM, constant_speed
 
 FORMAT_VERSION = 1
-PROJECT_DIR = Path(__file__).resolve().parent.parent
+PROJECT_DIR = Path(__file__).resolve().parents[2]
 TORQUE = "driving_torque"
-# channels sampled per angle: the output columns behind the FMU's end-of-step outputs (mechanics.outputs)
+# channels sampled per angle: the output columns behind the FMU's end-of-step outputs (mechanics.loop.outputs)
 CHANNELS = tuple(output.source for output in fmu_outputs() if output.per == STEP)
 # per-revolution figures: those behind the FMU's per-revolution outputs (real-gas ones are NaN under the tables)
 FIGURES = tuple(output.source for output in fmu_outputs() if output.per == REVOLUTION)

@@ -7,8 +7,8 @@ Newton iteration with bisection fallback, and beyond its validity limit it conti
 excess is reported by the caller, docs/model.md §5.2).
 """
 import math
-from ..thermo.choices import Choices
-from ..kernels.kernel import kernel
+from ...thermo.choices import Choices
+from ...kernels.kernel import kernel
 
 STIFFNESS_MODELS = Choices("hertz_point", "johnson_line")
 FRICTION_MODELS = Choices("threlfall", "ambrosio")

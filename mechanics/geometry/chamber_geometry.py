@@ -34,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
 from .displacement import HARMONIC, HARMONIC_DWELL, displacement
 

@@ -9,11 +9,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .chamber_geometry import sector_integral, sector_table
-from .contact_laws import HERTZ_POINT, hertz_stiffness, line_contact_constants
-from .displacement import DISPLACEMENT_LAWS
-from .parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
-from ..kernels.kernel import kernel_record
+from ..geometry.chamber_geometry import sector_integral, sector_table
+from ..contact.contact_laws import HERTZ_POINT, hertz_stiffness, line_contact_constants
+from ..geometry.displacement import DISPLACEMENT_LAWS
+from ..parameters import FRICTION_MODELS, INTEGRATORS, PRESSURE_MODELS, STIFFNESS_MODELS, CompressorParameters
+from ...kernels.kernel import kernel_record
 
 
 class VaneMassProperties(NamedTuple):
@@ -83,7 +83,7 @@ MACHINE_FIELDS = (
     ("atol_angular_velocity", "[rad/s]"), ("atol_work", "[J]"), ("max_step", "[s]"),
     ("contact_period", "T_c of docs/model.md §8.3, the time scale of the smallest step [s]"),
     ("max_onset_penetration", "[m]"),
-    ("stator_lobe_integral", "int (1/2 r^2 + d N) du over a lobe (mechanics.chamber_geometry) [m2]"),
+    ("stator_lobe_integral", "int (1/2 r^2 + d N) du over a lobe (mechanics.geometry.chamber_geometry) [m2]"),
 )
 MACHINE_DTYPE = np.dtype([(name, np.float64) for name, _ in MACHINE_FIELDS])
 

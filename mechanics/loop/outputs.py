@@ -3,7 +3,7 @@
 `STEP_OUTPUTS` lists the columns of one output row, the values the kernel writes at each accepted step: the
 history's columns, the CSV columns of the studies and, where `fmu` names it, an FMU output (its value at the end
 of the communication step). `FIGURES` lists the per-window figures (a lobe, a revolution) computed from the
-kernel's window records (mechanics.windows, mechanics.performance); those with an `fmu` name are FMU outputs over
+kernel's window records (mechanics.loop.windows, mechanics.performance); those with an `fmu` name are FMU outputs over
 the last completed revolution. From these two lists follow the kernel's index layout `O` (numba reads it as a
 constant: `out[O.driving_torque]`), the FMU variables (fmu_src.compressor), and the output tables of the README
 and docs/model.md (docs/make_tables.py). Adding an output is one declaration here plus the line of the kernel
@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from .regions import REGION_COUNT, REGION_LABELS, SLOT_REGIONS, TIP_REGIONS, labels_of
+from ..contact.regions import REGION_COUNT, REGION_LABELS, SLOT_REGIONS, TIP_REGIONS, labels_of
 
 STEP = "step"
 REVOLUTION = "revolution"

@@ -1,7 +1,7 @@
 """How long a run will take, said before it starts (docs/model.md §8.3).
 
 The step size is bounded by max_step and, on the stiff contacts, by the error control to about a tenth of the
-contact period T_c (mechanics.machine.contact_period) at the default rtol, scaling as rtol^(1/5) (a 5th-order error
+contact period T_c (mechanics.loop.machine.contact_period) at the default rtol, scaling as rtol^(1/5) (a 5th-order error
 estimate). So a simulated duration D takes about
 
     N = D (1/max_step + 1/h_c),   h_c = T_c/10 (rtol / 3e-5)^(1/5)
@@ -17,7 +17,7 @@ import math
 from typing import NamedTuple
 
 from .machine import machine_from_parameters
-from .parameters import CompressorParameters
+from ..parameters import CompressorParameters
 
 # measured cost of one accepted step at the defaults, 1500 rpm, 0.1 s (s): per (pressure model is real gas, method)
 STEP_SECONDS = {(False, "dopri5"): 4.4e-6, (False, "abm4"): 2.2e-6, (True, "dopri5"): 12.4e-6, (True, "abm4"): 3.9e-6}

@@ -6,8 +6,8 @@ stroke h at mid-lobe. Derivatives are with respect to the rotor angle theta.
 import math
 
 import numpy as np
-from ..thermo.choices import Choices
-from ..kernels.kernel import kernel
+from ...thermo.choices import Choices
+from ...kernels.kernel import kernel
 
 DISPLACEMENT_LAWS = Choices("harmonic", "cycloidal", "harmonic_dwell", "polynomial_345")
 HARMONIC, CYCLOIDAL, HARMONIC_DWELL, POLYNOMIAL_345 = DISPLACEMENT_LAWS.codes(

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from ..thermo import ideal_gas_pressure_table, polytropic_pressure_table
+from ...thermo import ideal_gas_pressure_table, polytropic_pressure_table
 
-from .displacement import displacement_on_grid
-from .geometry import law_arguments
+from ..geometry.displacement import displacement_on_grid
+from ..geometry.stator import law_arguments
 
 TABLE_POINTS = 20001          # 20000 intervals over the lobe, docs/model.md §7.5
 

@@ -1,5 +1,5 @@
 """Contact modes: labels and the dwell-filtered distinct modes (docs/model.md §4.6). The dwell of every mode is
-accumulated in the time loop (mechanics.windows)."""
+accumulated in the time loop (mechanics.loop.windows)."""
 from .regions import REGION_COUNT, REGION_LABELS
 
 MODE_COUNT = 1 << REGION_COUNT                    # one bit per region

@@ -4,9 +4,9 @@ Each region has a label, the feature pair it describes, the body the vane touche
 the reaction goes, docs/model.md §5.4), its slot in the contact memory of impact velocities (c5 and c6 share
 one: the tip touches the stator at one point, on one side or the other of the tip apex), the detector that finds
 its candidate and the side (+1 leading, -1 trailing) the detector looks at. The detectors live in
-mechanics.contact (`region_candidate` dispatches on the detector kind), the forces in mechanics.contact_forces;
-the per-region output columns (normal_force_k, ...), the memory, the mode masks and the region groups of the
-figures follow from this table (docs/model.md §14.1).
+mechanics.contact.detection (`region_candidate` dispatches on the detector kind), the forces in
+mechanics.contact.contact_forces; the per-region output columns (normal_force_k, ...), the memory, the mode masks and
+the region groups of the figures follow from this table (docs/model.md §14.1).
 """
 from __future__ import annotations
 

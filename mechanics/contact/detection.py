@@ -1,18 +1,18 @@
-"""Contact detection for the contact regions of mechanics.regions (docs/model.md §4).
+"""Contact detection for the contact regions of mechanics.contact.regions (docs/model.md §4).
 
-Detectors are pure: from the vane pose (mechanics.kinematics.VanePose) they return a `ContactCandidate` per region:
-the signed penetration delta (> 0 in contact), the unit normal n pointing from the other body into the vane, the
+Detectors are pure: from the vane pose (mechanics.geometry.kinematics.VanePose) they return a `ContactCandidate` per
+region: the signed penetration delta (> 0 in contact), the unit normal n pointing from the other body into the vane, the
 application point P, the curvatures (1/R) of the vane feature and of the other body at P, the radial position of
 P and, for the slot-mouth regions, the candidate type of docs/model.md §4.2. The force laws are in
-mechanics.contact_laws, the per-region forces in mechanics.contact_forces.
+mechanics.contact.contact_laws, the per-region forces in mechanics.contact.contact_forces.
 """
 import math
 from typing import NamedTuple
 
 
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
-from .geometry import closest_pitch_frame
+from ..geometry.stator import closest_pitch_frame
 from .regions import SLOT_MOUTH, TIP, WALL_CORNER
 
 # candidate types of the slot-mouth regions c1/c2 (docs/model.md §4.2), used by the extended mode key
@@ -139,9 +139,9 @@ def slot_floor_contact(side, pose, m):
 
 @kernel
 def region_candidate(detector, side, slots, tip, pose, m):
-    """The candidate of a region from its detector kind and side (mechanics.regions): the slot-mouth and wall-corner
-    candidates of this pose (`slots`), the tip candidate on its side of the apex (none on the other side), or the
-    bottom corner on the slot bottom."""
+    """The candidate of a region from its detector kind and side (mechanics.contact.regions): the slot-mouth and
+    wall-corner candidates of this pose (`slots`), the tip candidate on its side of the apex (none on the other side),
+    or the bottom corner on the slot bottom."""
     if detector == SLOT_MOUTH:
         return slots.mouth_leading if side > 0.0 else slots.mouth_trailing
     if detector == WALL_CORNER:

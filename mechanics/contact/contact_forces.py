@@ -1,5 +1,5 @@
-"""Contact forces of the contact regions (mechanics.regions) on the vane, and their reactions on the rotor and the stator
-(docs/model.md §5.1-§5.4).
+"""Contact forces of the contact regions (mechanics.contact.regions) on the vane, and their reactions on the rotor and
+the stator (docs/model.md §5.1-§5.4).
 
 For each region in contact: the elastic force and its hysteresis damping along n, regularised friction against the
 slip of the vane point P relative to the other body, applied at the same point P on both bodies. The per-region
@@ -9,12 +9,12 @@ import math
 from typing import NamedTuple
 
 
-from ..kernels.kernel import kernel
+from ...kernels.kernel import kernel
 
-from .contact import region_candidate
+from .detection import region_candidate
 from .contact_laws import elastic_force, friction_coefficient_effective, normal_force
-from .layout import MEM_ONSET_VELOCITY
-from .outputs import O
+from ..loop.layout import MEM_ONSET_VELOCITY
+from ..loop.outputs import O
 from .regions import REGION_BODY, REGION_COUNT, REGION_DETECTOR, REGION_MEMORY_SLOT, REGION_SIDE, ROTOR
 
 

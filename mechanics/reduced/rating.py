@@ -17,9 +17,9 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from ..thermo.fluid import Fluid
+from ...thermo.fluid import Fluid
 
-from .parameters import CompressorParameters
+from ..parameters import CompressorParameters
 from .periodic_map import MapSettings, run_speed_point
 
 LBM_PER_KG = 1.0 / 0.45359237

@@ -1,8 +1,9 @@
 """One evaluation of the reduced equations of motion, stage by stage (docs/model.md §8.1b):
 
-kinematics (mechanics.kinematics) -> contacts (mechanics.contact, mechanics.contact_forces) -> chamber pressures
-(the Level 0/0.5 table, or the real-gas chamber model at the chamber geometry of this pose: thermo.chamber_model,
-mechanics.chamber_geometry) -> gas loads (mechanics.gas_loads) -> equations of motion -> reported outputs.
+kinematics (mechanics.geometry.kinematics) -> contacts (mechanics.contact.detection, mechanics.contact.contact_forces)
+-> chamber pressures (the Level 0/0.5 table, or the real-gas chamber model at the chamber geometry of this pose:
+thermo.chamber_model, mechanics.geometry.chamber_geometry) -> gas loads (mechanics.gas.gas_loads) -> equations of motion
+-> reported outputs.
 
 `evaluate` is the right-hand side of the whole state (vane and, under real gas, the chamber block) for both
 integrators and the source of the output row.
@@ -12,19 +13,19 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kernels.kernel import kernel
-from ..thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
-                                             ChamberInputs, chamber_energy, chamber_rates)
-from ..thermo.flow_paths import PATH
-from ..thermo.leakage import parabolic_flank_length, tapered_gap_length
-from ..thermo.property_table import PropertyTable
-from ..thermo.real_gas_nozzle import NozzleTable
+from ...kernels.kernel import kernel
+from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
+                                     ChamberInputs, chamber_energy, chamber_rates)
+from ...thermo.flow_paths import PATH
+from ...thermo.leakage import parabolic_flank_length, tapered_gap_length
+from ...thermo.property_table import PropertyTable
+from ...thermo.real_gas_nozzle import NozzleTable
 
-from .chamber_geometry import SectorTable, chamber_geometry
-from .contact import slot_contacts, tip_contact
-from .contact_forces import contact_loads
-from .gas_loads import combine, gap_moment, gas_load_basis, slot_side
-from .kinematics import pose_of, reported_kinematics, vane_pose
+from ..geometry.chamber_geometry import SectorTable, chamber_geometry
+from ..contact.detection import slot_contacts, tip_contact
+from ..contact.contact_forces import contact_loads
+from ..gas.gas_loads import combine, gap_moment, gas_load_basis, slot_side
+from ..geometry.kinematics import pose_of, reported_kinematics, vane_pose
 from .layout import (ANGULAR_VELOCITY, ANGLE, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT,
                      MEM_LOBE_START, TIP_ON_FLAT_FACE, VX, VY, WORK_DAMPING, WORK_ELASTIC, WORK_FRICTION,
                      WORK_IN, WORK_OUT, X, Y)
@@ -223,8 +224,8 @@ def report_chambers(out, y, inputs, work, status, leading, trailing, c, table):
 @kernel
 def pose_stages(t, y, ctx, memory):
     """The pressure-independent stages of an evaluation: pose, the slot and tip candidates (the features the regions
-    of mechanics.regions and the gas loads share; contact_loads builds the region candidates from them), slot sides,
-    unit gas loads."""
+    of mechanics.contact.regions and the gas loads share; contact_loads builds the region candidates from them), slot
+    sides, unit gas loads."""
     m = ctx.machine[0]
     pose = vane_pose(t, y, ctx.law, m)
     slots = slot_contacts(pose, m)
