@@ -79,7 +79,7 @@ def private_package_name(model: str) -> str:
 
 def vendor(destination: Path, private: str) -> Path:
     """Copy the project's packages under `destination/private/`, as they are: they import each other relatively
-    (tests/test_imports.py), so the copy imports itself whatever its name."""
+    (tests/project/test_imports.py), so the copy imports itself whatever its name."""
     package = destination / private
     package.mkdir(parents=True)
     (package / "__init__.py").write_text(f'"""Bundled copy of rotary-vane-compressor {VERSION}."""\n')

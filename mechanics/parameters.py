@@ -337,7 +337,7 @@ def _vane_length_range(values) -> tuple:
 # for either end at its declaration; or the allowed choices). A sampler draws the other parameters over their
 # declared ranges, then these in this order within their bounds, and so lands in the valid region without
 # rejection except for the relations with no closed form: the stator regularity (mechanics.geometry.stator) and the
-# fluid's range (CoolProp). tests/test_parameters.py checks each bound against validation.
+# fluid's range (CoolProp). tests/mechanics/test_parameters.py checks each bound against validation.
 RELATION_BOUNDS = (
     ("discharge_pressure", lambda v: (math.nextafter(v["suction_pressure"], math.inf), None)),
     ("end_valley_leak_law", lambda v: tuple(law for law in LEAKAGE_LAWS if law != "friction_corrected"

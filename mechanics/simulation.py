@@ -191,7 +191,7 @@ class Simulation:
         valley gap the vane straddling the valley line leaves the chamber beside it a negative geometric volume (the
         pocket beside the vane counts on the other side of the line, docs/model.md §7.2). For the untilted vane at
         the start and the end of a lobe, on its nominal radius or lifted by c_S, centred or against either slot wall,
-        at least a quarter of the dead volume must remain (a margin for tilt, measured in tests/test_real_gas.py)."""
+        at least a quarter of the dead volume must remain (a margin for tilt, measured in tests/mechanics/test_real_gas.py)."""
         p = self.params
         lobe = 2.0 * math.pi / p.lobes
         memory = np.zeros(MEMORY_SIZE)

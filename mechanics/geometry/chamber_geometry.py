@@ -42,7 +42,7 @@ from .displacement import HARMONIC, HARMONIC_DWELL, displacement
 # points reach rounding error on half a lobe up to z = 12; the rise of the piecewise laws needs 24.
 HARMONIC_NODES, HARMONIC_WEIGHTS = np.polynomial.legendre.leggauss(16)
 PIECEWISE_NODES, PIECEWISE_WEIGHTS = np.polynomial.legendre.leggauss(24)
-SECTOR_INTERVALS = 2048             # Hermite intervals over half a lobe (error measured in tests/test_chambers.py)
+SECTOR_INTERVALS = 2048             # Hermite intervals over half a lobe (error measured in tests/mechanics/test_chambers.py)
 
 
 class ChamberGeometry(NamedTuple):

@@ -339,7 +339,7 @@ def every_path_run():
 
 def test_mass_and_energy_close_with_every_path_open(every_path_run):
     """Per revolution the chamber mass balance closes to rounding (|residual| < 1e-12 of the delivered mass, as
-    before the new paths) and the energy balance to 1e-4 of the compression work (tests/test_real_gas.py), with
+    before the new paths) and the energy balance to 1e-4 of the compression work (tests/mechanics/test_real_gas.py), with
     the start-valley and slot paths carrying flow (the tip stays on the stator in this run)."""
     sim = every_path_run
     history = sim.history

@@ -30,7 +30,7 @@ from PIL import Image, ImageChops
 from rotary_vane.mechanics import CompressorParameters
 from rotary_vane.mechanics.loop.machine import machine_from_parameters
 
-PROJECT_DIR = Path(__file__).resolve().parents[1]
+PROJECT_DIR = Path(__file__).resolve().parents[2]
 ANIMATE_SCRIPT = PROJECT_DIR / "examples" / "animate.py"
 CLEARANCE = 0.05e-3                # m, c_R = c_S
 LOBE_AREA_Z3 = 168.81e-6           # m^2, docs/model.md §2.5 table, z = 3, c_S = 0 (Green's theorem, [P])

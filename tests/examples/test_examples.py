@@ -265,7 +265,7 @@ def test_libcosim_agrees_with_the_fmpy_masters(coupling):
     shipped OspSystemStructure.xml with this study's start values it equals fmpy's Jacobi master at the file's
     base step (far within the 1 % asked). ECCO varies the step; it agrees with the reference within 1 % in steady
     speed and shaft power. (Its electrical power and the cumulative shaft work differ by about 2 %: a torque held
-    over steps whose length follows the ripple does not conserve energy; tests/test_fmu_coupling.py.)"""
+    over steps whose length follows the ripple does not conserve energy; tests/fmu/test_fmu_coupling.py.)"""
     _, summary, _ = coupling
     libcosim = summary["libcosim"]
     assert set(libcosim) == {"fixed step", "ECCO"}

@@ -24,7 +24,7 @@ from rotary_vane.thermo.property_table import (STATUS_DENSITY_ABOVE_TABLE, STATU
                                    property_table_for, property_table_path,
                                    table_ideal_gas_exponent, table_properties, table_status)
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+REPO_ROOT = Path(__file__).resolve().parents[2]
 ACCURACY = {"pressure": 1e-5, "enthalpy": 1e-5, "isochoric_heat_capacity": 1e-4,
             "pressure_temperature_derivative": 1e-4}
 MAIN_FLUIDS = ("R134a", "Air", "CO2")

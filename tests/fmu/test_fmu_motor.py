@@ -20,7 +20,7 @@ import pytest
 
 import fmu_helpers
 
-PROJECT = Path(__file__).resolve().parent.parent
+PROJECT = Path(__file__).resolve().parents[2]
 RPM = 2.0 * math.pi / 60.0
 
 # defaults of the FMU (fmu_src/motor.py), repeated here on purpose: a changed default must be a visible decision

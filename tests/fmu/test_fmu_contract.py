@@ -19,7 +19,7 @@ import fmu_helpers as H
 import fmu_shim_cases as S
 from test_fmu_compressor import script
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+README = Path(__file__).resolve().parents[2] / "README.md"
 ROW = re.compile(r"^\s*\| (C\d+) \| (.+?) \| (fmi2OK|fmi2Warning|fmi2Discard|fmi2Error|fmi2Fatal|an instance|NULL) "
                  r"\| (.+?) \|\s*$", re.M)
 STATUS = {"fmi2OK": H.OK, "fmi2Warning": H.WARNING, "fmi2Discard": H.DISCARD, "fmi2Error": H.ERROR,

@@ -5,7 +5,7 @@ A small C host (tests/c_host/fmu_host.c, compiled here with gcc) dlopens the FMU
 FMI 2 C API, as Ecos, OMSimulator, Simulink or Dymola do, from a clean environment: PATH=/usr/bin:/bin and HOME only,
 no LD_PRELOAD, PYTHONHOME or PYTHONPATH. The FMU's shim loads the libpython of the interpreter that built it
 (fmu_src/c/host_python.c). The result is compared with the same run through fmpy, in a subprocess too. The runs
-themselves are in tests/fmu_shim_cases.py (shared with the README's contract rows in tests/test_fmu_contract.py).
+themselves are in tests/fmu_shim_cases.py (shared with the README's contract rows in tests/fmu/test_fmu_contract.py).
 """
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ runs through fmpy's low-level API.
 Ecos's fixed-step master is Jacobi (every instance steps, then the connections pass the outputs on), as the
 Jacobi master of examples/motor_coupling.py: the shipped SystemStructure.ssd run in Ecos must give that master's
 numbers. Ecos applies an SSD's parameters only when the set's name is given at initialization (the file has one
-name, tests/test_fmu_coupling.py checks every value arrives), and it ignores the status an FMU returns: a refused
+name, tests/fmu/test_fmu_coupling.py checks every value arrives), and it ignores the status an FMU returns: a refused
 parameter shows only as the FMU's message, in Ecos's debug log and on stderr.
 
 Runs where physics is not the point use the Level 0.5 table (pressure_model = ideal_gas_table) and a few steps.

@@ -15,7 +15,7 @@ parameter, input or step size is named with its value in a message and its step 
 an input value); the valid steps after a refused input (or, after fmi2SetFMUstate, a refused step size) are fmi2OK.
 A separate process makes a second fmi2Instantiate and sets a state of one instance into the other.
 
-`python tests/test_fmu_fuzz.py report --fmu X.fmu [--json OUT]` prints the table of every case and its statuses.
+`python tests/fmu/test_fmu_fuzz.py report --fmu X.fmu [--json OUT]` prints the table of every case and its statuses.
 """
 from __future__ import annotations
 
@@ -347,7 +347,7 @@ def is_numeric(meta):
 
 
 def _declarations():
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
     from rotary_vane.mechanics.parameters import declarations
     return {name: (default, meta) for name, default, meta in declarations()}
 
@@ -858,7 +858,7 @@ def table(cases, results):
 # =====================================================================================================================
 # pytest part
 # =====================================================================================================================
-PROJECT = Path(__file__).resolve().parent.parent
+PROJECT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="session")
@@ -1060,7 +1060,7 @@ def main(argv):
         return worker_main(*argv[1:])
     if argv[0] == "cross":
         return cross_instance_main(*argv[1:])
-    if argv[0] == "report":                          # python tests/test_fmu_fuzz.py report --fmu X.fmu
+    if argv[0] == "report":                          # python tests/fmu/test_fmu_fuzz.py report --fmu X.fmu
         import argparse
         import zipfile
         parser = argparse.ArgumentParser()

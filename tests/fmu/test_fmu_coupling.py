@@ -1,7 +1,7 @@
 """DriveMotor + RotaryVaneCompressor coupled: libcosim (connections made in Python, an OspSystemStructure.xml, an
 SSP .ssd, and the ECCO adaptive-step algorithm with a speed x torque power bond) against a Gauss-Seidel master
 written here with fmpy's low-level API; and every start value of the shipped system files as libcosim, Ecos and
-fmpy's SSP reader apply it (Ecos's runs of the system: tests/test_fmu_ecos.py).
+fmpy's SSP reader apply it (Ecos's runs of the system: tests/fmu/test_fmu_ecos.py).
 
 The system (fmu_src/systems/): the induction motor (defaults: 1.5 kW, 1440 rpm, 4 poles, 50 Hz) integrates the
 shaft with J = J_motor + J_load (J_load = the compressor's rotor inertia, 5.5e-4 kg.m2, set to 0 in the compressor
@@ -21,8 +21,8 @@ from fmpy import read_model_description
 import fmu_helpers
 import system_files
 
-PROJECT = Path(__file__).resolve().parent.parent
-TESTS = Path(__file__).resolve().parent
+PROJECT = Path(__file__).resolve().parents[2]
+TESTS = Path(__file__).resolve().parents[1]
 RPM = 2.0 * math.pi / 60.0
 STEP, STOP, MARKS = 1e-3, 0.4, (0.24, 0.32, 0.40)
 INERTIA = 4.0e-3 + 5.5e-4                      # motor + compressor rotor [kg.m2], all on the motor's shaft
@@ -333,7 +333,7 @@ def test_every_engine_applies_every_start_value_of_the_system_file(fmus, tmp_pat
     component gets a value other than its FMU's own start value (the motor's initial_speed, the compressor's
     rotor_inertia and shaft_speed), so a set an engine leaves out shows. Ecos applies only the
     parameter sets named at initialization: the SSD has one name, passed as Ecos's users pass it (the ecos command
-    line's read-back is in tests/test_fmu_ecos.py)."""
+    line's read-back is in tests/fmu/test_fmu_ecos.py)."""
     engine, file = READ_BACK_ENGINES[name]
     expected = file_values(fmus / file)
     names = system_files.ssd_parameter_set_names(fmus / "SystemStructure.ssd")

@@ -5,5 +5,5 @@ from rotary_vane.mechanics.parameters import markdown_table
 
 
 def test_readme_parameter_table_matches_the_declarations():
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
     assert markdown_table() in readme

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 LIBRARY = ("kernels", "thermo", "mechanics", "fmu_src")
 LAYER = {"kernels": 0, "thermo": 1, "mechanics": 2, "fmu_src": 3, "examples": 4}
 SOURCES = sorted(path for folder in (*LIBRARY, "examples", "benchmarks", "tests", "docs")

@@ -565,7 +565,7 @@ H.emit({"unzipdir": host.unzipdir, "instantiate": t1 - t0, "initialize": t2 - t1
 
 def test_fresh_process_loads_the_compiled_kernels_from_the_cache(tmp_path):
     """An FMU without shipped kernels (built --no-kernels; the same path as one whose kernels this machine cannot
-    use, tests/test_fmu_shipped_kernels.py): after the first run on a machine, a new process - whose fmpy unpacks
+    use, tests/fmu/test_fmu_shipped_kernels.py): after the first run on a machine, a new process - whose fmpy unpacks
     the FMU to a new temporary folder - does not compile the numba kernels again: its first do_step writes nothing
     new into the cache folder (ROTARY_VANE_CACHE_DIR; nothing goes to the user's cache or to NUMBA_CACHE_DIR
     either)."""

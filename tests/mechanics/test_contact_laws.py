@@ -595,7 +595,7 @@ print("ok")
 
 def project_copy_with_a_new_friction_law(folder: Path) -> Path:
     """A copy of the packages (and pyproject.toml, which makes it a checkout) with RECIPE_EDITS applied."""
-    project = Path(__file__).resolve().parent.parent
+    project = Path(__file__).resolve().parents[2]
     for package in ("rotary_vane", "kernels", "thermo", "mechanics", "fmu_src"):
         shutil.copytree(project / package, folder / package, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy2(project / "pyproject.toml", folder / "pyproject.toml")

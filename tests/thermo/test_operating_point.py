@@ -23,7 +23,7 @@ from rotary_vane.thermo.fluid import SUPERHEAT_MARGIN, Fluid, check_operating_po
 from rotary_vane.thermo.operating_point import operating_point_for
 from rotary_vane.thermo.property_table import envelope_for, property_table_for, property_table_path
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+REPO_ROOT = Path(__file__).resolve().parents[2]
 FLUIDS = ("R134a", "Air", "CO2", "R410A", "R1234yf", "R290")
 R134A = ("R134a", 0.2928e6, 283.15, 1.3179e6)                # docs/model.md §7.1
 SMALL_GRID = (40, 40)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "docs" / "model.md"
 SECTION = r"§(\d+(?:\.\d+)?b?)"
 # a citation: "docs/model.md §2.4", also lists and ranges "docs/model.md §2.4–§2.6, §7 / §8.1b"

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TIMEOUT = 600.0                            # s per study on a busy machine (a cold numba compile included)
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MODE_DWELL_MIN_MS = 0.010                  # tau_min of the default parameters (docs/model.md §9), in ms
