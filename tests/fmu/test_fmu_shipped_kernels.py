@@ -136,7 +136,7 @@ def test_the_stamp_names_this_environment_and_a_build_without_kernels_ships_none
         compile_cache.environment_stamp(tmp_path, sources)
     cpu, requires = compile_cache.portable_cpu(stamp["platform"])
     assert (stamp["cpu"], stamp["cpu_features"], stamp["cpu_requires"]) == (cpu, "", list(requires))
-    for kernel in ("mechanics/integrators.run-", "mechanics/integrators.evaluate_state-"):   # the time loop's entries
+    for kernel in ("mechanics/loop/integrators.run-", "mechanics/loop/integrators.evaluate_state-"):   # loop entries
         assert [n for n in shipped if n.startswith(kernel) and n.endswith(".nbi")], shipped
     without = H.build_fmu(tmp_path / "without", options=["--no-kernels"])
     with zipfile.ZipFile(without) as archive:
