@@ -66,7 +66,7 @@ def parameters(model: str, tolerances: str) -> dict:
 # workers (each in its own process) -------------------------------------------------------------------------
 def core_worker(args: dict) -> dict:
     from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-    from rotary_vane.mechanics.layout import WORK_IN
+    from rotary_vane.mechanics.loop.layout import WORK_IN
     params = CompressorParameters(**parameters(args["model"], args["tolerances"]))
     h, stop = args["step"], args["stop_time"]
 

@@ -9,8 +9,8 @@ real-gas chambers at rtol 3e-5 (benchmarks/bench_real_gas.py and bench_tolerance
 1. numba loop, z = 3, 1500 rpm, c = slot = stator clearance in {0, 0.05, 0.2} mm, dopri5 and abm4:
    wall per revolution, real-time factor, steps and RHS evaluations per revolution, cost per step/evaluation.
 2. scipy DOP853 driven step by step on the same numba right-hand side (c = 0.05 mm), entered from Python through
-   mechanics.integrators.evaluate_state (the kernel's entry that Simulation.evaluate uses; it also writes the output
-   row), with the loop's own kernel functions for what follows an accepted step (_update_memory, _cross_valley)
+   mechanics.loop.integrators.evaluate_state (the kernel's entry that Simulation.evaluate uses; it also writes the
+   output row), with the loop's own kernel functions for what follows an accepted step (_update_memory, _cross_valley)
    and the loop's absolute tolerances (_tolerance).
 3. numba start-up: cold (empty ROTARY_VANE_CACHE_DIR, the project's kernel cache) and cached, plus the import of
    numpy/numba/scipy alone.
@@ -18,7 +18,7 @@ real-gas chambers at rtol 3e-5 (benchmarks/bench_real_gas.py and bench_tolerance
 
 Dropped: the same loop in pure Python (NUMBA_DISABLE_JIT=1). The restructured kernel reads its constants as a
 record, `ctx.machine[0]`; compiled, that is a numba record, but in pure Python the row of the plain structured
-array the Simulation passes (mechanics.machine.machine_array) is a numpy.void without attribute access, so the
+array the Simulation passes (mechanics.loop.machine.machine_array) is a numpy.void without attribute access, so the
 first right-hand side fails ("'numpy.void' object has no attribute 'tip_centre'"). Measuring it would need a change
 in mechanics/ or patching the Simulation from here; neither belongs in a benchmark.
 """
@@ -160,7 +160,7 @@ def report_numba(results: list[dict], revolutions: int, repeats: int) -> None:
 # 2. scipy DOP853 on the same right-hand side ------------------------------------------------------------
 def tolerance_vector(sim) -> np.ndarray:
     """The loop's absolute tolerance per state component (docs/model.md §8.2; integrators._tolerance at y = 0)."""
-    from rotary_vane.mechanics.integrators import _tolerance
+    from rotary_vane.mechanics.loop.integrators import _tolerance
     machine, chambers = sim.machine, sim.gas.chambers[0]
     return np.array([_tolerance(i, 0.0, machine, chambers) for i in range(sim.state.size)])
 
@@ -171,10 +171,10 @@ def scipy_revolution(sim, t_start: float, y_start: np.ndarray, memory: np.ndarra
     valley, the next lobe made the active one by the loop's own kernel functions."""
     from scipy.integrate import DOP853
 
-    from rotary_vane.mechanics.integrators import _cross_valley, _update_memory, context, evaluate_state
-    from rotary_vane.mechanics.layout import MEM_LOBE_START, WORK_IN
-    from rotary_vane.mechanics.outputs import OUTPUT_SIZE
-    from rotary_vane.mechanics.speed import rotor_motion
+    from rotary_vane.mechanics.loop.integrators import _cross_valley, _update_memory, context, evaluate_state
+    from rotary_vane.mechanics.loop.layout import MEM_LOBE_START, WORK_IN
+    from rotary_vane.mechanics.loop.outputs import OUTPUT_SIZE
+    from rotary_vane.mechanics.loop.speed import rotor_motion
 
     arrays = sim._kernel_context()                # the context arrays the kernel entries take (as Simulation passes)
     kernel_context = context(*arrays)             # the KernelContext that _cross_valley takes
@@ -221,8 +221,8 @@ def scipy_revolution(sim, t_start: float, y_start: np.ndarray, memory: np.ndarra
 def evaluate_call_cost(sim, calls: int = 20000) -> float:
     """µs per call of the numba `evaluate_state` from Python (dispatch, unboxing of the context arrays, building the
     context records, one right-hand side with its output row)."""
-    from rotary_vane.mechanics.integrators import evaluate_state
-    from rotary_vane.mechanics.outputs import OUTPUT_SIZE
+    from rotary_vane.mechanics.loop.integrators import evaluate_state
+    from rotary_vane.mechanics.loop.outputs import OUTPUT_SIZE
     y, memory = sim.state.copy(), sim.memory.copy()
     dydt, out = np.empty(y.size), np.empty(OUTPUT_SIZE)
     args = (memory, out, dydt, *sim._kernel_context())
@@ -234,7 +234,7 @@ def evaluate_call_cost(sim, calls: int = 20000) -> float:
 
 
 def compare_scipy(numba_reference: dict | None) -> None:
-    from rotary_vane.mechanics.layout import WORK_IN
+    from rotary_vane.mechanics.loop.layout import WORK_IN
     heading(f"2. scipy DOP853 stepped by hand on the numba RHS, c = {REFERENCE_CLEARANCE_MM} mm, dopri5 settle "
             f"1 revolution, then 1 revolution timed")
     params = parameters(REFERENCE_CLEARANCE_MM, "dopri5")
@@ -305,7 +305,7 @@ print(json.dumps({"numpy": t1 - t0, "numba": t2 - t1, "scipy": t3 - t2, "total":
 
 
 def startup_costs() -> None:
-    from rotary_vane.thermo.compile_cache import CACHE_ENVIRONMENT_VARIABLE
+    from rotary_vane.kernels.compile_cache import CACHE_ENVIRONMENT_VARIABLE
     heading(f"3. start-up: import mechanics + Simulation({PRESSURE_MODEL}) + advance(1e-4), fresh processes")
     imports, import_wall = run_subprocess(["-c", IMPORT_CODE], {})
     rows = [["import numpy / numba / scipy(+integrate)",

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.periodic_map import TORQUE, MapSettings, build_map, run_speed_point
-from rotary_vane.mechanics.speed import RPM
+from rotary_vane.mechanics.reduced.periodic_map import TORQUE, MapSettings, build_map, run_speed_point
+from rotary_vane.mechanics.loop.speed import RPM
 
 from report import heading, table  # benchmarks/ is the script's folder
 

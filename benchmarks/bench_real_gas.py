@@ -3,11 +3,11 @@
 Prints, per pressure model: wall per revolution, real-time factor, accepted/rejected steps and right-hand sides per
 revolution, cost per right-hand side; and the cost of the Level 1 parts of one right-hand side measured inside
 numba, with their share of it: the chamber geometry (volumes by Green's theorem and their rates, one function since
-the rates come from the unit-pressure gas loads, mechanics.chamber_geometry), the chamber model (thermo.chamber_model
-.chamber_rates: fluid states, the nozzle flows of ports and leaks, the balances) and, of it, the two property-table
-states; the rest of the right-hand side (the vane: pose, contacts, gas loads, equations of motion) by difference.
-Both models run at the reference numerics (REFERENCE_NUMERICS: rtol 1e-6, max_step 2e-5 s), named explicitly since
-the library's default tolerance is now rtol 3e-5 (bench_tolerances.py). Figures only.
+the rates come from the unit-pressure gas loads, mechanics.geometry.chamber_geometry), the chamber model
+(thermo.chamber_model .chamber_rates: fluid states, the nozzle flows of ports and leaks, the balances) and, of it, the
+two property-table states; the rest of the right-hand side (the vane: pose, contacts, gas loads, equations of motion) by
+difference. Both models run at the reference numerics (REFERENCE_NUMERICS: rtol 1e-6, max_step 2e-5 s), named explicitly
+since the library's default tolerance is now rtol 3e-5 (bench_tolerances.py). Figures only.
 """
 import argparse
 import math
@@ -18,11 +18,11 @@ import numpy as np
 from numba import njit
 
 from rotary_vane.mechanics import REFERENCE_NUMERICS, CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.chamber_geometry import chamber_geometry
-from rotary_vane.mechanics.dynamics import chamber_inputs_at, evaluate, pose_stages
-from rotary_vane.mechanics.integrators import ACCEPTED, EVALUATIONS, REJECTED, context
-from rotary_vane.mechanics.layout import GAS_BLOCK, MEM_LOBE_START
-from rotary_vane.mechanics.outputs import OUTPUT_SIZE
+from rotary_vane.mechanics.geometry.chamber_geometry import chamber_geometry
+from rotary_vane.mechanics.loop.dynamics import chamber_inputs_at, evaluate, pose_stages
+from rotary_vane.mechanics.loop.integrators import ACCEPTED, EVALUATIONS, REJECTED, context
+from rotary_vane.mechanics.loop.layout import GAS_BLOCK, MEM_LOBE_START
+from rotary_vane.mechanics.loop.outputs import OUTPUT_SIZE
 from rotary_vane.thermo.chamber_model import LEADING_TEMPERATURE, chamber_fluid_states, chamber_rates
 from rotary_vane.thermo.flow_paths import PATH
 

@@ -10,7 +10,7 @@ import sys
 import time
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.integrators import ACCEPTED, REJECTED
+from rotary_vane.mechanics.loop.integrators import ACCEPTED, REJECTED
 
 CASES = {  # label -> (parameters, speed [rpm], simulated time [s])
     "defaults (real_gas, dopri5, 1500 rpm)": (dict(), 1500.0, 0.045),

@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import math
 
-from rotary_vane.mechanics.displacement import displacement
-from rotary_vane.mechanics.geometry import law_arguments, valley_seal_length
-from rotary_vane.mechanics.machine import machine_from_parameters
+from rotary_vane.mechanics.geometry.displacement import displacement
+from rotary_vane.mechanics.geometry.stator import law_arguments, valley_seal_length
+from rotary_vane.mechanics.loop.machine import machine_from_parameters
 from rotary_vane.mechanics.parameters import CompressorParameters
 from rotary_vane.thermo.fluid import Fluid, coolprop
 from rotary_vane.thermo.leakage import (equivalent_discharge_coefficient, equivalent_gap_radius,

@@ -1,7 +1,7 @@
 """Regenerate the tables of docs/model.md and the README that come from the code: the default parameters (§9, from
 `rotary_vane.mechanics.parameters.markdown_table`), the outputs (from the declarations of
-`rotary_vane.mechanics.outputs`) and the FMU variables (§12, from the variables the FMU slaves register). Each
-table sits between `<!-- generated: NAME -->` and `<!-- end generated: NAME -->`; `tests/test_docs.py` checks that
+`rotary_vane.mechanics.loop.outputs`) and the FMU variables (§12, from the variables the FMU slaves register). Each
+table sits between `<!-- generated: NAME -->` and `<!-- end generated: NAME -->`; `tests/project/test_docs.py` checks that
 the files hold what this script would write.
 
     python docs/make_tables.py
@@ -42,7 +42,7 @@ def variable_table(variables) -> str:
 
 
 def output_table() -> str:
-    from rotary_vane.mechanics.outputs import markdown_table
+    from rotary_vane.mechanics.loop.outputs import markdown_table
     return markdown_table()
 
 

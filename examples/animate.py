@@ -52,14 +52,14 @@ from PIL import Image                                            # noqa: E402
 
 from rotary_vane.examples.cli_types import number_parser, whole_number_parser  # noqa: E402
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed  # noqa: E402
-from rotary_vane.mechanics.contact import slot_contacts, tip_contact  # noqa: E402
-from rotary_vane.mechanics.displacement import displacement  # noqa: E402
-from rotary_vane.mechanics.geometry import closest_pitch_parameter, stator_point  # noqa: E402
-from rotary_vane.mechanics.kinematics import pose_of  # noqa: E402
-from rotary_vane.mechanics.layout import ANGLE, X, Y  # noqa: E402
-from rotary_vane.mechanics.machine import machine_from_parameters  # noqa: E402
-from rotary_vane.mechanics.outputs import OUTPUT_INDEX  # noqa: E402
-from rotary_vane.mechanics.modes import REGION_LABELS  # noqa: E402
+from rotary_vane.mechanics.contact.detection import slot_contacts, tip_contact  # noqa: E402
+from rotary_vane.mechanics.geometry.displacement import displacement  # noqa: E402
+from rotary_vane.mechanics.geometry.stator import closest_pitch_parameter, stator_point  # noqa: E402
+from rotary_vane.mechanics.geometry.kinematics import pose_of  # noqa: E402
+from rotary_vane.mechanics.loop.layout import ANGLE, X, Y  # noqa: E402
+from rotary_vane.mechanics.loop.machine import machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.loop.outputs import OUTPUT_INDEX  # noqa: E402
+from rotary_vane.mechanics.contact.modes import REGION_LABELS  # noqa: E402
 
 MM = 1e3                          # drawings are in mm
 TWO_PI = 2.0 * math.pi
@@ -86,7 +86,7 @@ class Frames:
     rpm: float
     time: np.ndarray              # (n,) [s]
     pose: np.ndarray              # (n, 3): x_G, y_G [m], phi3 [rad] (docs/model.md §1.2)
-    outputs: np.ndarray           # (n, number of outputs), columns named in mechanics.layout.OUTPUT_NAMES
+    outputs: np.ndarray           # (n, number of outputs), columns named in mechanics.loop.layout.OUTPUT_NAMES
 
     def column(self, name: str) -> np.ndarray:
         return self.outputs[:, OUTPUT_INDEX[name]]

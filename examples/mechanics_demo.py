@@ -32,11 +32,11 @@ import numpy as np                         # noqa: E402
 
 from rotary_vane.examples.cli_types import number_parser, whole_number_parser  # noqa: E402
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
-from rotary_vane.mechanics.displacement import DISPLACEMENT_LAWS, displacement  # noqa: E402
-from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
+from rotary_vane.mechanics.geometry.displacement import DISPLACEMENT_LAWS, displacement  # noqa: E402
+from rotary_vane.mechanics.contact.modes import REGION_LABELS, mode_label  # noqa: E402
 from rotary_vane.mechanics.parameters import INTEGRATORS  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary, revolutions  # noqa: E402
-from rotary_vane.mechanics.regions import REGION_COUNT  # noqa: E402
+from rotary_vane.mechanics.contact.regions import REGION_COUNT  # noqa: E402
 
 REGIONS = range(1, REGION_COUNT + 1)       # contact regions c1..c8 (docs/model.md §1.3)
 

@@ -11,7 +11,7 @@ Points (all from the declarations in mechanics.parameters, so a new parameter is
   is drawn within the range the ones drawn before it allow (mechanics.parameters.RELATION_BOUNDS), so nearly every
   draw is valid; the relations with no closed form (the stator regularity, the fluid's range) still refuse some.
   Candidates are drawn until N pass validation and the library's up-front estimate of one revolution
-  (mechanics.run_cost) fits the budget; the others are counted by the parameter their error names, or as "no room"
+  (mechanics.loop.run_cost) fits the budget; the others are counted by the parameter their error names, or as "no room"
   or "announced over budget" (a refusal that names no parameter is kept as a point, and fails).
 
 Each point builds `CompressorParameters` (a ValueError there is a *refusal*: its message must name a parameter),
@@ -36,9 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
-from rotary_vane.mechanics.outputs import OUTPUT_NAMES, REAL_GAS_COLUMNS
+from rotary_vane.mechanics.loop.outputs import OUTPUT_NAMES, REAL_GAS_COLUMNS
 from rotary_vane.mechanics.parameters import RELATION_BOUNDS
-from rotary_vane.mechanics.run_cost import revolution_cost
+from rotary_vane.mechanics.loop.run_cost import revolution_cost
 from rotary_vane.mechanics.performance import revolutions
 
 MAX_SPEED_RPM = 30000.0              # the FMU's declared shaft_speed maximum (fmu_src.compressor.MAX_SHAFT_SPEED)
@@ -108,7 +108,7 @@ def random_point(rng) -> dict | None:
 
 def valid_random_points(count: int, seed: int = SEED, budget: float = math.inf) -> tuple[list[dict], dict]:
     """`count` random points that pass validation and whose revolution the library estimates within `budget`
-    seconds (mechanics.run_cost, said up front), and the candidates drawn before them that were refused: by the
+    seconds (mechanics.loop.run_cost, said up front), and the candidates drawn before them that were refused: by the
     parameter named, "no room" for a draw whose relations left an empty range, "announced over budget" for a valid
     point whose estimate exceeds the budget (module docstring)."""
     rng = np.random.default_rng(seed)

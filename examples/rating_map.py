@@ -30,9 +30,9 @@ import numpy as np                         # noqa: E402
 
 from rotary_vane.examples.cli_types import number_parser, whole_number_parser   # noqa: E402
 from rotary_vane.mechanics import CompressorParameters                        # noqa: E402
-from rotary_vane.mechanics.periodic_map import MapSettings                    # noqa: E402
-from rotary_vane.mechanics.rating import (COEFFICIENTS, evaluate_ahri, fahrenheit, fit_report,   # noqa: E402
-                                          rating_map)
+from rotary_vane.mechanics.reduced.periodic_map import MapSettings                    # noqa: E402
+from rotary_vane.mechanics.reduced.rating import (COEFFICIENTS, evaluate_ahri, fahrenheit, fit_report,   # noqa: E402
+                                                  rating_map)
 
 QUANTITIES = {"mass_flow": "lbm/h", "power": "W"}
 

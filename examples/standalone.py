@@ -31,7 +31,7 @@ import numpy as np                         # noqa: E402
 
 from rotary_vane.examples import fmu_harness as harness              # noqa: E402
 from rotary_vane.examples.cli_types import number_parser  # noqa: E402
-from rotary_vane.mechanics.regions import REGION_COUNT  # noqa: E402
+from rotary_vane.mechanics.contact.regions import REGION_COUNT  # noqa: E402
 
 GAS_OUTPUTS = ("discharge_mass_flow", "discharge_temperature")     # from the real-gas model
 REGIONS = range(1, REGION_COUNT + 1)            # c1..c8 (docs/model.md §1.3): leading, trailing in turn

@@ -45,9 +45,9 @@ import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
 from rotary_vane.mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed  # noqa: E402
-from rotary_vane.mechanics.modes import REGION_LABELS, mode_label  # noqa: E402
+from rotary_vane.mechanics.contact.modes import REGION_LABELS, mode_label  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary  # noqa: E402
-from rotary_vane.mechanics.regions import REGION_COUNT  # noqa: E402
+from rotary_vane.mechanics.contact.regions import REGION_COUNT  # noqa: E402
 from rotary_vane.examples.mechanics_demo import Run, plot_contact_modes, run_one  # noqa: E402
 from rotary_vane.examples.study_report import DEFAULT_OUT, markdown_table, write_manifest, write_report  # noqa: E402
 

@@ -35,8 +35,8 @@ import matplotlib.pyplot as plt            # noqa: E402
 import numpy as np                         # noqa: E402
 
 from rotary_vane.mechanics import CompressorParameters  # noqa: E402
-from rotary_vane.mechanics.geometry import closest_pitch_frame, stator_regularity  # noqa: E402
-from rotary_vane.mechanics.machine import machine_from_parameters  # noqa: E402
+from rotary_vane.mechanics.geometry.stator import closest_pitch_frame, stator_regularity  # noqa: E402
+from rotary_vane.mechanics.loop.machine import machine_from_parameters  # noqa: E402
 from rotary_vane.mechanics.performance import WindowSummary  # noqa: E402
 from rotary_vane.examples.animate import Frames, reference_centre, simulate_frames, stator_curve  # noqa: E402
 from rotary_vane.examples.mechanics_demo import run_one  # noqa: E402
@@ -97,7 +97,7 @@ class Trajectory:
 
 
 def law_of(m: np.record) -> tuple:
-    """The pitch-curve arguments (law, h, z, beta0, beta1, R0) of mechanics.geometry."""
+    """The pitch-curve arguments (law, h, z, beta0, beta1, R0) of mechanics.geometry.stator."""
     return m.law, m.stroke, m.lobes, m.bottom_dwell, m.top_dwell, m.base_radius
 
 

@@ -1,14 +1,14 @@
 """Build the FMUs: `python -m rotary_vane.fmu_src.build [--out build/fmu]`.
 
-Each FMU bundles this project's packages (`thermo`, `mechanics`, `fmu_src`) under a private package name made
-of the version, a hash of the sources and the model identifier (the packages import each other relatively, so the
+Each FMU bundles this project's packages (`kernels`, `thermo`, `mechanics`, `fmu_src`) under a private package name
+made of the version, a hash of the sources and the model identifier (the packages import each other relatively, so the
 copy needs no rewriting), so that a host that has already imported another `mechanics` or `thermo`, another version of
 this project or another FMU of this project (the motor beside the compressor), still runs the FMU's own code,
 imported from the FMU's own resources folder. The entry module pythonfmu loads is generated here; the FMU also carries
 `documentation/index.html` and `resources/requirements.txt`, and is built with `--handle-state --serialize-state`.
 
 The compressor's bundle also carries its kernels compiled for a portable CPU (`compiled_kernels/`,
-thermo.compile_cache), made by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_*
+kernels.compile_cache), made by fmu_src.ship_kernels in separate processes (the builder's own kernel cache and NUMBA_*
 settings are not used); `--no-kernels` leaves them out (a smaller FMU whose first run compiles them). The motor
 calls no kernel (plain Python), so its bundle ships none.
 """
@@ -26,8 +26,8 @@ from pathlib import Path
 
 from pythonfmu import FmuBuilder
 
-from ..thermo.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
-                                              cache_folder, environment_stamp, portable_cpu, source_hash)
+from ..kernels.compile_cache import (CACHE_ENVIRONMENT_VARIABLE, PROJECT_PACKAGES, SHIPPED_FOLDER,
+                                     cache_folder, environment_stamp, portable_cpu, source_hash)
 
 from .requirements import bundled_requirements
 from .status_shim import DEGRADED as SHIM_DEGRADED
@@ -79,7 +79,7 @@ def private_package_name(model: str) -> str:
 
 def vendor(destination: Path, private: str) -> Path:
     """Copy the project's packages under `destination/private/`, as they are: they import each other relatively
-    (tests/test_imports.py), so the copy imports itself whatever its name."""
+    (tests/project/test_imports.py), so the copy imports itself whatever its name."""
     package = destination / private
     package.mkdir(parents=True)
     (package / "__init__.py").write_text(f'"""Bundled copy of rotary-vane-compressor {VERSION}."""\n')
@@ -148,7 +148,7 @@ def ship_map(private: str, map_file: Path) -> None:
     values = json.loads(Path(map_file).read_text())
     operating = float(values.pop("pressure_table_speed", 1500.0))
     parameters = __import__(f"{private}.mechanics.parameters", fromlist=["CompressorParameters"])
-    tables = __import__(f"{private}.mechanics.periodic_map", fromlist=["build_map"])
+    tables = __import__(f"{private}.mechanics.reduced.periodic_map", fromlist=["build_map"])
     mode = __import__(f"{private}.fmu_src.periodic_map_mode", fromlist=["SHIPPED_TABLES"])
     tables.build_map(parameters.CompressorParameters(**values), operating_rpm=operating,
                      settings=tables.MapSettings(table_speed_rpm=operating), cache_dir=mode.SHIPPED_TABLES)

@@ -1,7 +1,7 @@
 """The compressor as an FMI 2.0 co-simulation slave: shaft speed in [rpm], torque and powers out.
 
 A thin map of FMI calls onto `mechanics.Simulation` (one per instance): parameters generated from the parameter
-declarations, outputs from the output declarations (mechanics.outputs: end-of-step values read from the last
+declarations, outputs from the output declarations (mechanics.loop.outputs: end-of-step values read from the last
 output row, per-revolution figures from the last completed revolution the time loop summarised), the speed
 input held or ramped over each communication step, the whole simulation state saved and restored. Outputs are
 read when the importer asks for them: a step does nothing in Python beyond one call of the time loop.
@@ -17,11 +17,11 @@ from pythonfmu.variables import Boolean
 from ..mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
 from ..mechanics.parameters import is_numeric
 from ..mechanics.simulation import WORK_PER_MS
-from ..mechanics.layout import WORK_IN
-from ..mechanics.machine import machine_from_parameters
-from ..mechanics.modes import MODE_COUNT
-from ..mechanics.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
-from ..thermo.compile_cache import cache_root, shipped_kernel_misses, shipped_kernels_refusal
+from ..mechanics.loop.layout import WORK_IN
+from ..mechanics.loop.machine import machine_from_parameters
+from ..mechanics.contact.modes import MODE_COUNT
+from ..mechanics.loop.outputs import OUTPUT_INDEX, REAL_GAS, REVOLUTION, fmu_outputs
+from ..kernels.compile_cache import cache_root, shipped_kernel_misses, shipped_kernels_refusal
 
 from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity

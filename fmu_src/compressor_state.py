@@ -11,17 +11,17 @@ import math
 
 import numpy as np
 
-from ..mechanics.integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_PREVIOUS_ERROR, CONTROL_SIZE,
-                                     CONTROL_SMALL_ERRORS, CONTROL_STEP, COUNTER_SIZE, smallest_step)
-from ..mechanics.layout import MEMORY_SIZE, REAL_GAS_STATE_SIZE, VANE_STATE_SIZE
-from ..mechanics.outputs import OUTPUT_INDEX, OUTPUT_SIZE, STEP_OUTPUTS
+from ..mechanics.loop.integrators import (ABM_HISTORY, CONTROL_HISTORY, CONTROL_PREVIOUS_ERROR, CONTROL_SIZE,
+                                          CONTROL_SMALL_ERRORS, CONTROL_STEP, COUNTER_SIZE, smallest_step)
+from ..mechanics.loop.layout import MEMORY_SIZE, REAL_GAS_STATE_SIZE, VANE_STATE_SIZE
+from ..mechanics.loop.outputs import OUTPUT_INDEX, OUTPUT_SIZE, STEP_OUTPUTS
 from ..mechanics.simulation import ARRAY_FIELDS, SimulationState
-from ..mechanics.speed import SHAPES
-from ..mechanics.windows import MODE_KEYS, RECORD_SIZE, WINDOW_ACCUMULATORS, WINDOW_SIZE, WINDOW_START
+from ..mechanics.loop.speed import SHAPES
+from ..mechanics.loop.windows import MODE_KEYS, RECORD_SIZE, WINDOW_ACCUMULATORS, WINDOW_SIZE, WINDOW_START
 
 from . import state_schema as schema
 
-SPEED_LAW_SIZE = 6              # mechanics.speed.SpeedLaw.segment: shape, start time, angle, speed, target, duration
+SPEED_LAW_SIZE = 6     # mechanics.loop.speed.SpeedLaw.segment: shape, start time, angle, speed, target, duration
 
 
 def simulation_state(simulation) -> dict:
@@ -80,8 +80,8 @@ MAP_RUN = schema.Record({name: schema.Real() for name in ("time", "angle", "spee
 
 
 def undefined_columns(pressure_model: str) -> np.ndarray:
-    """Which columns of an output row may be NaN (mechanics.outputs): those the pressure model does not fill, and the
-    penetrations and their rates (NaN for a region without a contact candidate)."""
+    """Which columns of an output row may be NaN (mechanics.loop.outputs): those the pressure model does not fill, and
+    the penetrations and their rates (NaN for a region without a contact candidate)."""
     mask = np.zeros(OUTPUT_SIZE, dtype=bool)
     for output in STEP_OUTPUTS:
         if pressure_model not in output.models or output.name in ("penetration", "penetration_rate"):
@@ -110,11 +110,11 @@ def check_rows(simulation: dict, pressure_model: str) -> None:
 
 
 def check_controls(simulation: dict, machine) -> None:
-    """The integrator's controls between advances (mechanics.integrators.advance): the step size finite and within
+    """The integrator's controls between advances (mechanics.loop.integrators.advance): the step size finite and within
     what the step-size rules can leave (at most 10 max_step after a DOPRI5 step; a rejection below the smallest step
     16 eps max(|t|, T_c) stops the run), the ABM4 history count and small-error count in their ranges, the previous
     error estimate 0 (none yet) or in [1e-4, 1]; the speed law of a known shape. `machine`: the kernel record of the
-    state's parameters (mechanics.machine.machine_from_parameters)."""
+    state's parameters (mechanics.loop.machine.machine_from_parameters)."""
     control, law = simulation["control"].tolist(), simulation["speed_law"].tolist()
     step, low, high = control[CONTROL_STEP], smallest_step(0.0, machine), 10.0 * machine.max_step
     if not low <= step <= high:

@@ -1,7 +1,7 @@
 """The drive motor as an FMI 2.0 co-simulation slave: load torque in, shaft speed, torque and powers out.
 
 The physics (Kloss induction motor, DC motor, the shaft equation and its RK4 substeps) is
-`rotary_vane.mechanics.drive_motor`; this module declares the FMU variables and maps the FMI calls onto it.
+`rotary_vane.mechanics.reduced.drive_motor`; this module declares the FMU variables and maps the FMI calls onto it.
 """
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import math
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
-from ..mechanics.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
+from ..mechanics.reduced.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
 from ..mechanics.parameters import short_repr
-from ..mechanics.speed import RPM
+from ..mechanics.loop.speed import RPM
 
 from . import state_schema as schema
 from .slave import GuardedSlave, StepFailed

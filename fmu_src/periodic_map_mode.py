@@ -1,5 +1,5 @@
 """The compressor FMU's `periodic_map` fidelity: the detailed model's periodic steady state, tabulated at
-initialization over a speed grid (mechanics.periodic_map), interpolated and integrated at run time.
+initialization over a speed grid (mechanics.reduced.periodic_map), interpolated and integrated at run time.
 
 Per communication step of length h the rotor angle follows the speed input held or moved linearly over the step,
 theta_1 = theta_0 + (omega_0 + omega_1) h / 2, and the shaft work is the exact integral of the interpolated
@@ -13,15 +13,15 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..mechanics.outputs import STEP, fmu_outputs
+from ..mechanics.loop.outputs import STEP, fmu_outputs
 from ..mechanics.parameters import short_repr
-from ..mechanics.periodic_map import MapSettings, build_map, cache_key, default_cache_dir
-from ..mechanics.regions import REGION_COUNT
-from ..mechanics.speed import RPM
+from ..mechanics.reduced.periodic_map import MapSettings, build_map, cache_key, default_cache_dir
+from ..mechanics.contact.regions import REGION_COUNT
+from ..mechanics.loop.speed import RPM
 
 FIDELITIES = ("detailed", "periodic_map")
 SHIPPED_TABLES = Path(__file__).resolve().parent.parent / "periodic_maps"    # inside an FMU built with --map
-# FMU output -> table channel (the output column behind it, mechanics.outputs)
+# FMU output -> table channel (the output column behind it, mechanics.loop.outputs)
 OUTPUT_CHANNEL = {output.name: output.source for output in fmu_outputs() if output.per == STEP}
 CONTACT_CHANNELS = tuple(f"normal_force_{k}" for k in range(1, REGION_COUNT + 1))
 

@@ -1,4 +1,4 @@
-"""Compile the kernels an FMU run needs for the FMU to ship (thermo.compile_cache, "Shipped kernels").
+"""Compile the kernels an FMU run needs for the FMU to ship (kernels.compile_cache, "Shipped kernels").
 
 fmu_src.build runs `python -m <bundle>.fmu_src.ship_kernels` from the bundled package, twice, in separate processes
 with a temporary ROTARY_VANE_CACHE_DIR, none of the builder's NUMBA_* settings and numba's portable CPU
@@ -28,7 +28,8 @@ from pythonfmu.enums import Fmi2Status
 from pythonfmu.variables import Integer, Real
 
 from ..mechanics.parameters import INTEGRATORS, PRESSURE_MODELS
-from ..thermo import compile_cache, disk_cache
+from ..kernels import compile_cache
+from ..thermo import disk_cache
 
 from .compressor import CompressorSlave
 from .slave import INITIALIZED

@@ -18,12 +18,12 @@ from ..thermo.fluid import UnknownFluidError
 from ..thermo.leakage import LEAKAGE_LAWS
 from ..thermo.operating_point import operating_point_for
 
-from .contact_laws import FRICTION_MODELS, STIFFNESS_MODELS
-from .displacement import DISPLACEMENT_LAWS
-from .geometry import check_stator_regularity
+from .contact.contact_laws import FRICTION_MODELS, STIFFNESS_MODELS
+from .geometry.displacement import DISPLACEMENT_LAWS
+from .geometry.stator import check_stator_regularity
 
 # a choice is declared as a thermo.choices.Choices next to the kernel that branches on its code; these two are
-# read by the time loop through mechanics.machine
+# read by the time loop through mechanics.loop.machine
 INTEGRATORS = Choices("dopri5", "abm4")
 PRESSURE_MODELS = Choices("polytropic", "ideal_gas_table", "real_gas")
 
@@ -336,8 +336,8 @@ def _vane_length_range(values) -> tuple:
 # order in which each comes after the ones it depends on: (name, bounds(values) -> (low, high) for a number, None
 # for either end at its declaration; or the allowed choices). A sampler draws the other parameters over their
 # declared ranges, then these in this order within their bounds, and so lands in the valid region without
-# rejection except for the relations with no closed form: the stator regularity (mechanics.geometry) and the
-# fluid's range (CoolProp). tests/test_parameters.py checks each bound against validation.
+# rejection except for the relations with no closed form: the stator regularity (mechanics.geometry.stator) and the
+# fluid's range (CoolProp). tests/mechanics/test_parameters.py checks each bound against validation.
 RELATION_BOUNDS = (
     ("discharge_pressure", lambda v: (math.nextafter(v["suction_pressure"], math.inf), None)),
     ("end_valley_leak_law", lambda v: tuple(law for law in LEAKAGE_LAWS if law != "friction_corrected"

@@ -1,6 +1,6 @@
 """Per-lobe and per-revolution figures from the time loop's lobe records (docs/model.md §4.6, §6.4).
 
-The loop lands on every valley and writes one record per lobe (mechanics.windows): the output rows at its start
+The loop lands on every valley and writes one record per lobe (mechanics.loop.windows): the output rows at its start
 and end, and what accumulated over it. Means are exact work differences (the work integrals are states), a
 revolution is z consecutive lobes ending at a multiple of 2 pi, and sums, maxima and dwells of lobes add up.
 """
@@ -11,18 +11,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .modes import MODE_COUNT, distinct_modes
-from .outputs import O, OUTPUT_SIZE
-from .regions import REGION_COUNT, SLOT_REGIONS, TIP_REGIONS
-from .windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_GAP_WORK, ACC_INDICATED_WORK, ACC_LAW_EXCESS, ACC_MAX_FORCE,
-                      ACC_MAX_TILT, ACC_STATOR_MOMENT, MASKS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_END, RECORD_LOBE,
-                      RECORD_START)
+from .contact.modes import MODE_COUNT, distinct_modes
+from .loop.outputs import O, OUTPUT_SIZE
+from .contact.regions import REGION_COUNT, SLOT_REGIONS, TIP_REGIONS
+from .loop.windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_GAP_WORK, ACC_INDICATED_WORK, ACC_LAW_EXCESS,
+                           ACC_MAX_FORCE, ACC_MAX_TILT, ACC_STATOR_MOMENT, MASKS, MODE_KEYS, RECORD_ACCUMULATORS,
+                           RECORD_END, RECORD_LOBE, RECORD_START)
 
 
 @dataclass(frozen=True)
 class WindowSummary:
     """Figures over one window [start_time, end_time] of whole lobes (docs/model.md §6.4; each of
-    mechanics.outputs.FIGURES is an attribute)."""
+    mechanics.loop.outputs.FIGURES is an attribute)."""
     start_time: float
     end_time: float
     input_power: float            # <P_in> [W]
@@ -39,12 +39,12 @@ class WindowSummary:
     driving_torque: float         # <T_d> = W_in / angle turned [N m]
     stator_torque: float          # <lambda3 + M_gas,stator> [N m]
     gap_torque: float             # <M_gap>, pressure moment on the gaps no body carries [N m]
-    max_normal_force: tuple       # max F_n per region, in the order of mechanics.regions.REGIONS [N]
+    max_normal_force: tuple       # max F_n per region, in the order of mechanics.contact.regions.REGIONS [N]
     max_tilt: float               # max |phi3 - theta| [rad]
     contact_law_excess: float     # largest penetration beyond a force law's validity limit [m]
     mode_dwell: dict              # mode mask -> cumulative dwell [s]
     distinct_modes: tuple         # masks with dwell >= tau_min
-    mode_dwell_extended: dict     # extended mode key (mask + c1/c2 candidate types, mechanics.windows) -> dwell [s]
+    mode_dwell_extended: dict     # extended mode key (mask + c1/c2 candidate types, mechanics.loop.windows) -> [s]
     distinct_modes_extended: tuple
     # chamber gas (real gas; NaN for the pressure tables), docs/model.md §6.4, §7
     suction_mass_flow: float = math.nan     # net mass from the suction side / duration [kg/s]
@@ -98,7 +98,7 @@ def _dwell_dict(dwell: np.ndarray) -> dict[int, float]:
 
 
 def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: float, reference=None) -> WindowSummary:
-    """WindowSummary of consecutive complete lobe records (rows of the mechanics.windows record layout); with the
+    """WindowSummary of consecutive complete lobe records (rows of the mechanics.loop.windows record layout); with the
     real-gas `reference` (thermo.gas_reference.GasReference) also the compressor figures it defines."""
     start = records[0, RECORD_START:RECORD_START + OUTPUT_SIZE]
     end = records[-1, RECORD_END:RECORD_END + OUTPUT_SIZE]

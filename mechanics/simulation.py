@@ -19,24 +19,24 @@ from ..thermo.fluid import Fluid
 from ..thermo.property_table import describe_status, table_from_arrays, table_status
 from ..thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
 
-from .chamber_geometry import sector_table
-from .displacement import displacement
+from .geometry.chamber_geometry import sector_table
+from .geometry.displacement import displacement
 from .errors import ContactLawWarning, IntegrationError
-from .gas_coupling import gas_coupling
-from .geometry import law_arguments
-from .integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE, REJECTED,
-                          WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
-from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
-                     MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
-                     VY, WORK_IN, WORK_LIMIT, X, Y)
-from .machine import machine_array, record_of
-from .outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
+from .gas.gas_coupling import gas_coupling
+from .geometry.stator import law_arguments
+from .loop.integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE,
+                               REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
+from .loop.layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
+                          MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
+                          VY, WORK_IN, WORK_LIMIT, X, Y)
+from .loop.machine import machine_array, record_of
+from .loop.outputs import OUTPUT_INDEX, OUTPUT_NAMES, OUTPUT_SIZE
 from .parameters import CompressorParameters
 from .performance import WindowSummary, revolution_groups, summarise_records
-from .run_cost import slow_run_notice
-from .speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed, rotor_motion
-from .windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZE, WINDOW_ACCUMULATORS,
-                      new_window)
+from .loop.run_cost import slow_run_notice
+from .loop.speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed, rotor_motion
+from .loop.windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZE, WINDOW_ACCUMULATORS,
+                           new_window)
 
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
@@ -129,7 +129,7 @@ class Simulation:
         self.gas = gas_coupling(p, operating_speed)
         self.gas_reference = self.gas.reference
         machine = machine_array(p)
-        self.machine = record_of(machine)          # the constants by name (mechanics.machine)
+        self.machine = record_of(machine)          # the constants by name (mechanics.loop.machine)
         sectors = sector_table(self.machine)
         self._context = (machine, None, self.gas.pressure_table, self.gas.chambers, self.gas.flow_work,
                          *self.gas.properties, *self.gas.nozzles, sectors.segments, sectors.nodes)
@@ -191,7 +191,7 @@ class Simulation:
         valley gap the vane straddling the valley line leaves the chamber beside it a negative geometric volume (the
         pocket beside the vane counts on the other side of the line, docs/model.md §7.2). For the untilted vane at
         the start and the end of a lobe, on its nominal radius or lifted by c_S, centred or against either slot wall,
-        at least a quarter of the dead volume must remain (a margin for tilt, measured in tests/test_real_gas.py)."""
+        at least a quarter of the dead volume must remain (a margin for tilt, measured in tests/mechanics/test_real_gas.py)."""
         p = self.params
         lobe = 2.0 * math.pi / p.lobes
         memory = np.zeros(MEMORY_SIZE)
@@ -373,7 +373,7 @@ class Simulation:
         row as a dict). `memory` defaults to the run's current memory (docs/model.md §8.1)."""
         state = np.asarray(state, dtype=np.float64)
         if state.shape != self.state.shape:
-            raise ValueError(f"'state' has shape {state.shape}: allowed {self.state.shape} (mechanics.layout)")
+            raise ValueError(f"'state' has shape {state.shape}: allowed {self.state.shape} (mechanics.loop.layout)")
         rates = np.zeros(state.size)
         out = np.full(OUTPUT_SIZE, np.nan)
         status = evaluate_state(float(t), state.copy(), (self.memory if memory is None else memory).copy(), out,
@@ -395,7 +395,7 @@ class Simulation:
 
     @property
     def lobe_records(self) -> np.ndarray:
-        """Every lobe record so far (mechanics.windows layout), or the last 2z - 1 without the history."""
+        """Every lobe record so far (mechanics.loop.windows layout), or the last 2z - 1 without the history."""
         if not self.keep_history:
             return self.recent_records
         if len(self._records) > 1:

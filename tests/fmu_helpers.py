@@ -1,4 +1,4 @@
-"""Helpers for the FMU product tests (tests/test_fmu_compressor.py): build the FMU, drive it from host processes.
+"""Helpers for the FMU product tests (tests/fmu/test_fmu_compressor.py): build the FMU, drive it from host processes.
 
 Every FMU run happens in a separate Python process (a "host"): a crash inside the FMU (a numba kernel, the
 pythonfmu C++ layer, interpreter exit) then shows as a non-zero exit status instead of killing pytest. Two halves:

@@ -1,5 +1,5 @@
 """Runs of the FMU's shim (fmu_src/c/fmi2_status_shim.c), made once per test session and shared by
-tests/test_fmu_c_host.py (which checks their details) and tests/test_fmu_contract.py (README rows C14, C16-C22).
+tests/fmu/test_fmu_c_host.py (which checks their details) and tests/fmu/test_fmu_contract.py (README rows C14, C16-C22).
 
 * `python_host_cases`: a Python host (fmpy's FMU2Slave, its functions called directly) instantiates the built FMU
   with every resource-location form, with locations and GUIDs that must be refused, and walks the FMI states asking

@@ -8,7 +8,7 @@ and dV/dphase are passed in by the caller (thin-vane volume of docs/model.md §6
 
 from pathlib import Path
 
-from .compile_cache import install as _install_compile_cache
+from ..kernels.compile_cache import install as _install_compile_cache
 
 _install_compile_cache(Path(__file__).parent)       # before any kernel is defined
 

@@ -33,7 +33,7 @@ from .chamber_state import (CHAMBER_STATES, ENERGY_BACK_CHAMBER, ENERGY_DISCHARG
 from .control_volume import chamber_derivatives, internal_energy_temperature
 from .flow_paths import (BACK, FLOW_PATHS, INPUT_GAP, LEADING, SUCTION, TRAILING, FlowNode, flow_work,
                          network_tables, node_pairs, path_flows, set_node, sum_flows)
-from .kernel import kernel, kernel_record
+from ..kernels.kernel import kernel, kernel_record
 from .leakage import LAW_NOZZLE
 from .property_table import table_properties, table_state
 

@@ -6,7 +6,7 @@ paths; the fluid properties (p, h, c_v, (dp/dT)_rho) are evaluated by the caller
 import math
 
 
-from .kernel import kernel
+from ..kernels.kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
 from .property_table import table_properties
 

@@ -18,7 +18,7 @@ import tempfile
 import warnings
 from pathlib import Path
 
-from .compile_cache import CACHE_ENVIRONMENT_VARIABLE
+from ..kernels.compile_cache import CACHE_ENVIRONMENT_VARIABLE
 
 SHIPPED_DATA = Path(__file__).resolve().parent.parent / "shipped_data"      # in an FMU: beside the packages
 

@@ -40,7 +40,7 @@ import numpy as np
 from .chamber_state import (ENERGY_BACK_CHAMBER, ENERGY_DISCHARGE, ENERGY_SUCTION, LEADING_MASS, LEADING_TEMPERATURE,
                             MASS_BACK_CHAMBER, MASS_DISCHARGE, MASS_SUCTION, TRAILING_MASS, TRAILING_TEMPERATURE)
 from .control_volume import port_coverage
-from .kernel import kernel, kernel_record
+from ..kernels.kernel import kernel, kernel_record
 from .leakage import leakage_path_open, real_gas_leakage_flow
 from .property_table import STATUS_OK
 from .real_gas_nozzle import STATUS_THROAT_NEAR_SATURATION, nozzle_flux_between

@@ -53,7 +53,7 @@ import numpy as np
 from .checks import checked_number, fail
 from .choices import Choices
 from .control_volume import LINEAR_FLOW_BAND, signed_nozzle_flow
-from .kernel import kernel
+from ..kernels.kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
 from .property_table import STATUS_OK
 from .real_gas_nozzle import nozzle_flux_between, table_viscosity

@@ -2,7 +2,7 @@
 
 import math
 
-from .kernel import kernel
+from ..kernels.kernel import kernel
 
 
 @kernel

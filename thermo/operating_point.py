@@ -19,7 +19,7 @@ margin) to the envelope's T_max (T_dome: the dew temperature, T_crit above p_cri
 DISCHARGE_TEMPERATURE_TOLERANCE = 1e-8 K of that midpoint's T. A node's density is CoolProp's PT flash polished by a
 Newton step on p(T, rho) = p_d (the flash alone leaves p off by up to 1e-8 relative, 2e-7 K in T(h)), then h and
 c_p at (T, rho). Measured for the six fluids of benchmarks/bench_properties.py at their typical operating points
-(tests/test_operating_point.py): 104-359 nodes, 10-150 ms to build; within 1e-8 K of exact (h, T) pairs of the
+(tests/thermo/test_operating_point.py): 104-359 nodes, 10-150 ms to build; within 1e-8 K of exact (h, T) pairs of the
 isobar, and within 4.2e-7 K of CoolProp's HmassP flash, whose own convergence error reaches that. Outside the
 tabulated enthalpies the temperature is NaN. The run's discharge enthalpy itself comes from the property table
 (h within 4e-10 relative for R134a, some 2e-7 K): the interpolation is not what limits the figure. (A Newton solve

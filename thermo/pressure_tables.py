@@ -8,7 +8,7 @@ model this is the thin-vane volume of docs/model.md §6.5. All quantities are SI
 import numpy as np
 
 from .checks import checked_number, fail
-from .kernel import kernel
+from ..kernels.kernel import kernel
 from .nozzle import isentropic_nozzle_mass_flow
 
 

@@ -72,7 +72,7 @@ import numpy as np
 
 from .disk_cache import cache_path, load_or_build
 from .fluid import SUPERHEAT_MARGIN, Fluid, check_operating_point, coolprop, coolprop_version
-from .kernel import kernel
+from ..kernels.kernel import kernel
 from .saturation import (DEFAULT_SATURATION_STEP, SATURATION_QUANTITIES, SATURATION_TOLERANCE, VAPOUR_VOLUME,
                          build_saturation_line, mixture_state, saturation_quantity)
 

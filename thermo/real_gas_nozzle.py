@@ -67,7 +67,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .control_volume import LINEAR_FLOW_BAND
-from .kernel import kernel
+from ..kernels.kernel import kernel
 from .fluid import Fluid, coolprop, coolprop_version
 from .disk_cache import cache_path, load_or_build
 from .property_table import (DEFAULT_TEMPERATURE_NODES as PROPERTY_TEMPERATURE_NODES, DOME_REFINEMENT,
@@ -131,7 +131,7 @@ ARRAY_FIELDS = NozzleTable._fields[9:16] + NozzleTable._fields[22:]
 
 
 # ----------------------------------------------------------------------------------------------------------
-# numba kernels (thermo.kernel: numpy's error model, no exception can leave them)
+# numba kernels (kernels.kernel: numpy's error model, no exception can leave them)
 #
 # The evaluation kernels only read the table, so they are compiled without numba's reference counting
 # (`@kernel`): passing the NamedTuple of seven arrays into a call otherwise costs an atomic incref/decref pair

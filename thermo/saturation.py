@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .fluid import Fluid, coolprop
-from .kernel import kernel
+from ..kernels.kernel import kernel
 
 SATURATION_QUANTITIES = ("pressure", "vapour_volume", "liquid_volume", "vapour_enthalpy", "liquid_enthalpy",
                          "vapour_energy", "liquid_energy")

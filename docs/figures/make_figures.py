@@ -21,10 +21,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed, cycloidal_ramp  # noqa: E402
-from rotary_vane.mechanics.displacement import displacement  # noqa: E402
-from rotary_vane.mechanics.geometry import law_arguments, pitch_frame  # noqa: E402
+from rotary_vane.mechanics.geometry.displacement import displacement  # noqa: E402
+from rotary_vane.mechanics.geometry.stator import law_arguments, pitch_frame  # noqa: E402
 from rotary_vane.mechanics.performance import revolutions  # noqa: E402
-from rotary_vane.mechanics.pressure_source import leading_pressure_table  # noqa: E402
+from rotary_vane.mechanics.gas.pressure_source import leading_pressure_table  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 DPI = 100

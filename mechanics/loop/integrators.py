@@ -1,0 +1,517 @@
+"""The time loop: one step loop for every method, the adaptive Dormand-Prince 5(4) pair and the thesis's ABM4 PECE
+with RK4 start (docs/model.md §8.2).
+
+`advance` is entered once per advance and runs until the end time, a full output buffer or a failure. It owns
+what every method shares, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
+to land on them; a step is rejected when its error is too large, when a contact opened deeper than
+max_onset_penetration, or when the state is invalid; after an accepted step the memory (warm start, impact
+velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.loop.windows) and,
+at a valley, the lobe record written and the chambers switched. A method is a set of kernels with one signature
+each (begin, bounded step, attempt, after rejection, after acceptance: the block "The methods" below):
+`dopri5_*` from the tableau below (as scipy's RungeKutta classes do), `abm4_*` as Adams-Bashforth predictor and
+Adams-Moulton corrector with Runge-Kutta (RK4) steps to start and to land on events. The loop reaches them through
+the `method_*` dispatchers, so it reads the same for every method and a new method does not edit it.
+"""
+import math
+
+import numpy as np
+
+from ...kernels.kernel import copy_values, kernel
+from ...thermo.chamber_model import gas_tolerance, switch_chambers
+from ...thermo.property_table import table_from_arrays
+from ...thermo.real_gas_nozzle import nozzle_table_from_arrays
+
+from ..geometry.chamber_geometry import SectorTable
+from .dynamics import KernelContext, chamber_inputs_at, evaluate
+from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
+                     MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
+                     RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_LIMIT, X, Y)
+from .machine import ABM4, REAL_GAS_MODEL
+from .outputs import O
+from ..contact.regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
+from .speed import ramp_end_time, rotor_motion, time_of_angle
+from .windows import accumulate, close_window
+
+# counters shared with Python
+ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS = range(6)
+COUNTER_SIZE = 6
+# control values kept between advances
+CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
+CONTROL_SIZE = 4
+PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
+ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
+NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
+TIME_RESOLUTION = 16.0 * np.finfo(np.float64).eps      # the smallest step relative to the time (smallest_step)
+
+# Dormand-Prince 5(4) (Hairer, Norsett, Wanner, Solving ODEs I, Table 5.2): nodes C, coefficients A (the last row
+# is the 5th-order solution B: first same as last), error weights E = B - B_hat.
+DOPRI5_C = np.array([0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0])
+DOPRI5_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
+    [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
+    [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0]])
+DOPRI5_E = np.array([71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
+                     -1.0 / 40.0])
+# classical RK4 (thesis Table 4.1), the start and event steps of ABM4
+RK4_C = np.array([0.0, 0.5, 0.5, 1.0])
+RK4_A = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 1.0]])
+RK4_B = np.array([1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0])
+
+# workspace rows (each as long as the state vector): the stages k_1 .. k_7 of DOPRI5 (RK4 uses the first four; row
+# 0 is f at the current point), then the stage point, the new state, the ABM4 predictor and its derivative
+STAGES = 7
+W_STAGE, W_Y_NEW, W_Y_PREDICTED, W_F_PREDICTED = range(STAGES, STAGES + 4)
+WORKSPACE_ROWS = STAGES + 4
+
+
+@kernel
+def _tolerance(i, value, m, c):
+    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (chamber states: thermo's)."""
+    if i >= GAS_BLOCK:
+        return gas_tolerance(i - GAS_BLOCK, value, c, m.relative_tolerance)
+    if i == X or i == Y:
+        atol = m.atol_position
+    elif i == ANGLE:
+        atol = m.atol_angle
+    elif i == VX or i == VY:
+        atol = m.atol_velocity
+    elif i == ANGULAR_VELOCITY:
+        atol = m.atol_angular_velocity
+    else:
+        atol = m.atol_work
+    return atol + m.relative_tolerance * abs(value)
+
+
+@kernel
+def _all_finite(values, count):
+    for i in range(count):
+        if not math.isfinite(values[i]):
+            return False
+    return True
+
+
+@kernel
+def _clip_to_events(t, step, t_end, law, memory, m):
+    """Shorten the step to land on the next event inside it; return (step, event kind)."""
+    event = NO_EVENT
+    if t + step >= t_end:
+        step = t_end - t
+        event = END_EVENT
+    ramp_end = ramp_end_time(law)
+    if t < ramp_end < t + step:
+        step = ramp_end - t
+        event = RAMP_EVENT
+    next_valley = memory[MEM_LOBE_START] + 2.0 * math.pi / m.lobes
+    if rotor_motion(t + step, law)[0] >= next_valley:
+        step = time_of_angle(next_valley, t, t + step, law) - t
+        event = VALLEY_EVENT
+    return step, event
+
+
+@kernel
+def _opened_too_deep(out, memory, m):
+    """True if a contact that was open at the start of the step closed with delta > max_onset_penetration."""
+    for region in range(REGION_COUNT):
+        if out[O.penetration + region] > m.max_onset_penetration \
+                and memory[MEM_ONSET_VELOCITY + REGION_MEMORY_SLOT[region]] <= 0.0:
+            return True
+    return False
+
+
+@kernel
+def _update_memory(out, memory, m):
+    """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed."""
+    memory[MEM_CLOSEST_OFFSET] = out[O.closest_parameter_offset]
+    for slot in range(MEMORY_SLOTS):
+        touching = False
+        rate = 0.0
+        for region in range(REGION_COUNT):       # the regions sharing a slot touch one at a time (c5/c6)
+            if REGION_MEMORY_SLOT[region] == slot and out[O.penetration + region] > 0.0:
+                touching = True
+                rate = out[O.penetration_rate + region]
+        index = MEM_ONSET_VELOCITY + slot
+        if not touching:
+            memory[index] = 0.0
+        elif memory[index] <= 0.0:
+            memory[index] = max(abs(rate), m.onset_velocity_floor)
+    memory[MEM_LAW_EXCESS] = max(memory[MEM_LAW_EXCESS], out[O.contact_law_excess])
+    changed = out[O.contact_mode] != memory[MEM_MODE]
+    memory[MEM_MODE] = out[O.contact_mode]
+    return changed
+
+
+@kernel
+def _stage_point(target, y, h, tableau, row, k, count, n):
+    """target = y + h sum_j tableau[row, j] k_j over the first `count` stages (k: the workspace, one row a stage)."""
+    for i in range(n):
+        total = 0.0
+        for j in range(count):
+            total += tableau[row, j] * k[j, i]
+        target[i] = y[i] + h * total
+
+
+# The methods (docs/model.md §8.2). Each is a set of kernels with the same arguments:
+#   <method>_begin(control, history, work, n)                 at the start of an advance
+#   <method>_bounded_step(h, m)                               the step to try before the events clip it
+#   <method>_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+#                                                             one step: new state in work[W_Y_NEW], its derivative in
+#                                                             work[STAGES - 1], its output row in `out`; returns
+#                                                             (failure status, scaled error: <= 1 accepts)
+#   <method>_after_rejection(control, step, err, finite)      the step size to retry with
+#   <method>_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+#                                                             the method's memory and the next step size
+# The step size and the method's memory live in `control` (CONTROL_*), so an advance continues where the last
+# ended. The `method_*` dispatchers at the end of this block are the only place that names the methods: a new
+# method is its kernels and one line in each dispatcher; the loop (`advance`) is the same for every method.
+
+@kernel
+def dopri5_begin(control, history, work, n):
+    """The PI controller's previous error starts at 1e-4 (Hairer's DOPRI5)."""
+    if control[CONTROL_PREVIOUS_ERROR] <= 0.0:
+        control[CONTROL_PREVIOUS_ERROR] = 1e-4
+
+
+@kernel
+def dopri5_bounded_step(h, m):
+    return min(h, m.max_step)
+
+
+@kernel
+def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
+    """One Dormand-Prince step from (t, y) with k_1 = work[0] (first same as last: k_7 is the new state's
+    derivative, work[STAGES - 1]). Returns (failure status, RMS scaled error)."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
+    n = y.size
+    failure = 0
+    for i in range(1, STAGES):
+        target = work_rows[W_Y_NEW] if i == STAGES - 1 else work_rows[W_STAGE]
+        _stage_point(target, y, h, DOPRI5_A, i, work, i, n)
+        failure |= evaluate(t + DOPRI5_C[i] * h, target, ctx, memory, work_rows[i], out, i == STAGES - 1)
+    counters[EVALUATIONS] += STAGES - 1
+    squares = 0.0
+    for i in range(n):
+        error = 0.0
+        for j in range(STAGES):
+            error += DOPRI5_E[j] * work[j, i]
+        squares += (h * error / _tolerance(i, max(abs(y[i]), abs(work[W_Y_NEW, i])), m, c)) ** 2
+    return failure, math.sqrt(squares / n)
+
+
+@kernel
+def dopri5_after_rejection(control, step, err, finite):
+    """Shrink by the error's own factor (at most 5x) if the error rejected the step, else halve."""
+    if err > 1.0 and finite:
+        return step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
+    return 0.5 * step
+
+
+@kernel
+def dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    """PI control: h_new = step min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)), no growth right after a
+    rejection; a step shortened by an event does not shrink the step size."""
+    err = max(err, 1e-10)
+    factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * control[CONTROL_PREVIOUS_ERROR] ** PI_BETA))
+    if rejected_last:
+        factor = min(factor, 1.0)
+    control[CONTROL_PREVIOUS_ERROR] = max(err, 1e-4)
+    h = control[CONTROL_STEP]
+    control[CONTROL_STEP] = max(h, step * factor) if event != NO_EVENT else step * factor
+
+
+@kernel
+def abm4_begin(control, history, work, n):
+    """f_n of the current point is the newest history point."""
+    for i in range(n):
+        history[0, i] = work[0, i]
+    control[CONTROL_HISTORY] = max(control[CONTROL_HISTORY], 1.0)
+
+
+@kernel
+def abm4_bounded_step(h, m):
+    """ABM4 keeps its step (h_max bounds only its doubling): the history is at that spacing."""
+    return h
+
+
+@kernel
+def _abm4_multistep(control, event):
+    """True if the step is a PECE step (four points at the current spacing, no event), False for an RK4 step."""
+    return control[CONTROL_HISTORY] >= 4.0 and event == NO_EVENT
+
+
+@kernel
+def abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
+    """One ABM4 PECE step from (t, y) (docs/model.md §8.2), f_n = history[0] = work[0]:
+      AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
+      LTE ~ 19/270 (y^c - y^p);
+    or, without four points at the current spacing or when the step lands on an event, one RK4 step (no error
+    estimate). Returns (failure status, max scaled error)."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
+    n = y.size
+    y_new = work_rows[W_Y_NEW]
+    failure = 0
+    worst = 0.0
+    if _abm4_multistep(control, event):
+        y_pred = work_rows[W_Y_PREDICTED]
+        f_pred = work_rows[W_F_PREDICTED]
+        for i in range(n):
+            y_pred[i] = y[i] + h / 24.0 * (55.0 * history[0, i] - 59.0 * history[1, i] + 37.0 * history[2, i]
+                                           - 9.0 * history[3, i])
+        failure |= evaluate(t + h, y_pred, ctx, memory, f_pred, out, False)
+        for i in range(n):
+            y_new[i] = y[i] + h / 24.0 * (9.0 * f_pred[i] + 19.0 * history[0, i] - 5.0 * history[1, i]
+                                          + history[2, i])
+            worst = max(worst, abs(19.0 / 270.0 * (y_new[i] - y_pred[i])) / _tolerance(i, y_new[i], m, c))
+        counters[EVALUATIONS] += 2
+    else:
+        for i in range(1, 4):
+            _stage_point(work_rows[W_STAGE], y, h, RK4_A, i, work, i, n)
+            failure |= evaluate(t + RK4_C[i] * h, work_rows[W_STAGE], ctx, memory, work_rows[i], out, False)
+        for i in range(n):
+            y_new[i] = y[i] + h * (RK4_B[0] * work[0, i] + RK4_B[1] * work[1, i] + RK4_B[2] * work[2, i]
+                                   + RK4_B[3] * work[3, i])
+        counters[EVALUATIONS] += 4
+    failure |= evaluate(t + h, y_new, ctx, memory, work_rows[STAGES - 1], out, True)
+    return failure, worst
+
+
+@kernel
+def abm4_after_rejection(control, step, err, finite):
+    """Halve and restart from y_n."""
+    control[CONTROL_HISTORY] = 1.0
+    control[CONTROL_SMALL_ERRORS] = 0.0
+    return 0.5 * min(control[CONTROL_STEP], step)
+
+
+@kernel
+def _abm4_shift_history(control, event, history, work, n):
+    """The accepted point becomes f_n; the older points shift back unless an event restarted the spacing."""
+    valid = int(control[CONTROL_HISTORY])
+    if event == NO_EVENT:
+        for j in range(ABM_HISTORY - 1, 0, -1):
+            for i in range(n):
+                history[j, i] = history[j - 1, i]
+        valid = min(valid + 1, ABM_HISTORY)
+    else:
+        valid = 1
+    for i in range(n):
+        history[0, i] = work[0, i]
+    control[CONTROL_HISTORY] = valid
+
+
+@kernel
+def abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    """Shift the history (restart it after a non-smooth point); double h after 8 PECE steps with err < 1/50 if
+    2h <= h_max, reusing every second point when 7 are known at the current spacing, else restarting."""
+    multistep = _abm4_multistep(control, event)
+    _abm4_shift_history(control, event, history, work, n)
+    if restart:
+        control[CONTROL_HISTORY] = 1.0
+        counters[RESTARTS] += 1
+    small_errors = control[CONTROL_SMALL_ERRORS] + 1.0 if (multistep and err < 1.0 / 50.0) else 0.0
+    h = control[CONTROL_STEP]
+    if small_errors >= 8.0 and 2.0 * h <= m.max_step:
+        if control[CONTROL_HISTORY] >= ABM_HISTORY:
+            for j in range(1, 4):
+                for i in range(n):
+                    history[j, i] = history[2 * j, i]
+            control[CONTROL_HISTORY] = 4.0
+        else:
+            control[CONTROL_HISTORY] = 1.0
+        control[CONTROL_STEP] = 2.0 * h
+        small_errors = 0.0
+    control[CONTROL_SMALL_ERRORS] = small_errors
+
+
+@kernel(inline=True)
+def method_begin(code, control, history, work, n):
+    if code == ABM4:
+        abm4_begin(control, history, work, n)
+    else:
+        dopri5_begin(control, history, work, n)
+
+
+@kernel(inline=True)
+def method_bounded_step(code, h, m):
+    if code == ABM4:
+        return abm4_bounded_step(h, m)
+    return dopri5_bounded_step(h, m)
+
+
+@kernel(inline=True)
+def method_attempt(code, t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
+    if code == ABM4:
+        return abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+    return dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+
+
+@kernel(inline=True)
+def method_after_rejection(code, control, step, err, finite):
+    if code == ABM4:
+        return abm4_after_rejection(control, step, err, finite)
+    return dopri5_after_rejection(control, step, err, finite)
+
+
+@kernel(inline=True)
+def method_after_acceptance(code, control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    if code == ABM4:
+        abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+    else:
+        dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+
+
+@kernel
+def _cross_valley(t, y, memory, ctx, real_gas):
+    """The vane crossed the end valley of its lobe: the next lobe becomes the active one and, under real gas, the
+    chambers are switched (thermo.chamber_model.switch_chambers). Returns False if a chamber state left the
+    property table."""
+    m = ctx.machine[0]
+    if not real_gas:
+        memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
+        memory[MEM_LOBE_COUNT] += 1.0
+        return True
+    old_inputs = chamber_inputs_at(t, y, ctx, memory)
+    memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
+    memory[MEM_LOBE_COUNT] += 1.0
+    return switch_chambers(y, GAS_BLOCK, old_inputs, chamber_inputs_at(t, y, ctx, memory), ctx.chambers[0],
+                           ctx.properties)
+
+
+@kernel
+def smallest_step(t, m):
+    """h_min = 16 eps max(|t|, T_c) (docs/model.md §8.2): the step below which t + h no longer differs from t by
+    more than a few units of rounding, so the error control cannot be met by any smaller step; the contact period
+    T_c (mechanics.loop.machine.contact_period) is the time scale near t = 0."""
+    return TIME_RESOLUTION * max(abs(t), m.contact_period)
+
+
+@kernel
+def _step_rejected(err, failure, out, memory, m):
+    """A step is rejected when its error is too large, its state invalid, or a contact opened too deep."""
+    return err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m)
+
+
+@kernel
+def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
+    """Accumulate the lobe window (mechanics.loop.windows) and write the output row (row 0 unless keep_rows)."""
+    accumulate(window, run_dwell, out)
+    row = rows if keep_rows else 0
+    for i in range(out.size):
+        rows_out[row, i] = out[i]
+
+
+@kernel
+def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, out, scratch, rows_out,
+            keep_rows, lobe_records, counters, max_attempts):
+    """Integrate from t to t_end with the machine's method (module docstring; the methods above). y, memory,
+    control, history, window, run_dwell and counters are updated in place; work is the workspace (WORKSPACE_ROWS
+    rows) and work_rows the same rows as a tuple of arrays (a function without reference counting cannot take
+    views); out and scratch are output rows; accepted output rows go to rows_out (all of them if keep_rows, else
+    only the last in rows_out[0]), lobe records to lobe_records. At most max_attempts steps are attempted
+    (accepted or rejected): then the status is WORK_LIMIT, so that no state (a step size of 0 or 5e-324, a time
+    that does not advance) can make the loop spin.
+    Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number."""
+    m = ctx.machine[0]
+    method = m.integrator
+    real_gas = m.pressure_model == REAL_GAS_MODEL
+    n = y.size
+    rows = 0
+    records = 0
+    evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
+    counters[EVALUATIONS] += 1
+    method_begin(method, control, history, work, n)
+    rejected_last = False
+    attempts = 0
+    while t < t_end:
+        if (keep_rows and rows >= rows_out.shape[0]) or records >= lobe_records.shape[0]:
+            return RECORD_FULL, t, rows, records
+        if attempts >= max_attempts:
+            return WORK_LIMIT, t, rows, records
+        attempts += 1
+        control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
+        step, event = _clip_to_events(t, control[CONTROL_STEP], t_end, ctx.law, memory, m)
+        failure, err = method_attempt(method, t, step, event, y, ctx, memory, control, history, work, work_rows, out,
+                                      counters)
+        finite = _all_finite(work_rows[W_Y_NEW], n) and _all_finite(work_rows[STAGES - 1], n)
+        if not finite:
+            err = math.inf
+        if _step_rejected(err, failure, out, memory, m):
+            counters[REJECTED] += 1
+            rejected_last = True
+            control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
+            if control[CONTROL_STEP] < smallest_step(t, m):
+                if failure != 0:
+                    return failure, t, rows, records
+                return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
+            continue
+        counters[ACCEPTED] += 1
+        t = t_end if event == END_EVENT else t + step
+        copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
+        copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
+        mode_changed = _update_memory(out, memory, m)
+        counters[MODE_CHANGES] += mode_changed
+        _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows)
+        rows += 1
+        if event == VALLEY_EVENT:
+            records = close_window(window, out, round(memory[MEM_LOBE_START] * m.lobes / (2.0 * math.pi)) + 1,
+                                   lobe_records, records)
+            if not _cross_valley(t, y, memory, ctx, real_gas):
+                return GAS_STATE_INVALID, t, rows, records
+            counters[VALLEY_CROSSINGS] += 1
+            evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
+            counters[EVALUATIONS] += 1
+        restart = mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT
+        method_after_acceptance(method, control, step, err, event, restart, rejected_last, history, work, n, m,
+                                counters)
+        rejected_last = False
+    return (REACHED_END if t >= t_end else NOT_FINITE), t, rows, records
+
+
+@kernel(allocates=True)
+def context(machine, law, pressure_table, chambers, flow_work, table_scalars, table_nodes, dome_limit, accurate_cell,
+            ideal_gas_exponent, saturation_nodes, nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
+            nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity, nozzle_dome_limit, nozzle_accurate_cell,
+            nozzle_saturation_nodes, nozzle_dome_critical_ratio, nozzle_dome_choked_flux_factor,
+            nozzle_dome_shape_factor, nozzle_dome_accurate_cell, sector_segments, sector_nodes):
+    """The KernelContext of plain arrays: only arrays cross the Python -> numba boundary (a named tuple costs
+    microseconds per call to unbox), the named records are built here."""
+    return KernelContext(machine, law, pressure_table, chambers, flow_work,
+                         table_from_arrays(table_scalars, table_nodes, dome_limit, accurate_cell,
+                                           ideal_gas_exponent, saturation_nodes),
+                         nozzle_table_from_arrays(nozzle_header, nozzle_critical_ratio, nozzle_choked_flux_factor,
+                                                  nozzle_shape_factor, nozzle_throat_superheat, nozzle_viscosity,
+                                                  nozzle_dome_limit, nozzle_accurate_cell, nozzle_saturation_nodes,
+                                                  nozzle_dome_critical_ratio, nozzle_dome_choked_flux_factor,
+                                                  nozzle_dome_shape_factor, nozzle_dome_accurate_cell),
+                         SectorTable(sector_segments, sector_nodes))
+
+
+@kernel(allocates=True)
+def run(t, t_end, y, memory, control, history, window, run_dwell, work, outs, rows_out, keep_rows, lobe_records,
+        counters, max_attempts, *context_arrays):
+    """`advance` with its context (the arrays of `context`, in its order) and workspace given as arrays (the entry
+    point mechanics.simulation calls): the named records and the tuple of workspace rows are built here, once per
+    advance."""
+    ctx = context(*context_arrays)
+    work_rows = (work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10])
+    return advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, outs[0], outs[1],
+                   rows_out, keep_rows, lobe_records, counters, max_attempts)
+
+
+@kernel(allocates=True)
+def evaluate_state(t, y, memory, out, rates, *context_arrays):
+    """dy/dt (into `rates`) and the output row (into `out`) of the state (t, y) with the given memory, as an
+    accepted step would report it; returns the kernel status of the state. context_arrays: those of `context`."""
+    return evaluate(t, y, context(*context_arrays), memory, rates, out, True)
+
+
+@kernel(allocates=True)
+def initial_chamber_inputs(t, y, memory, *context_arrays):
+    """(V_L, V_T) geometric chamber volumes of the state (t, y), to fill the chambers at the start of a run."""
+    inputs = chamber_inputs_at(t, y, context(*context_arrays), memory)
+    return inputs.volume_leading, inputs.volume_trailing
