@@ -233,7 +233,8 @@ class ContactForce:
 def contact_forces(m: np.record, pose: np.ndarray, row: np.ndarray) -> list[ContactForce]:
     """The active contacts of one output row with their points and normals from the detection functions (docs/model.md §4).
 
-    Regions c1/c2 slot mouth, c3/c4 vane bottom corners, c5/c6 tip on stator (one of them at a time).
+    Regions c1/c2 slot mouth, c3/c4 vane bottom corners on the walls, c5/c6 tip on stator (one of them at a time),
+    c7/c8 vane bottom corners on the slot bottom.
     """
     gx, gy, phi = pose
     vane = pose_of(gx, gy, phi, row[OUTPUT_INDEX["rotor_angle"]], m)

@@ -276,7 +276,7 @@ def plot_contact_forces(runs: list[Run], rpm: float, path: Path) -> None:
         ax.set_ylabel("normal force F_n [N]")
         ax.legend(loc="upper right", fontsize=8)
     fig.suptitle(f"Contact normal forces over the last full revolution, {rpm:g} rpm "
-                 f"(c1/c2 slot mouth, c3/c4 vane bottom, c5/c6 tip; left leading, right trailing)")
+                 f"(c1/c2 slot mouth, c3/c4 vane bottom corners on the walls, c5/c6 tip, c7/c8 slot bottom; left leading, right trailing)")
     finish_axes(axes)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

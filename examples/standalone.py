@@ -154,7 +154,7 @@ def print_summary(s: dict) -> None:
     print(f"  energy ledger residual   {100.0 * s['energy_ledger_residual']:10.4f} %     (shaft work not accounted "
           f"for, docs/model.md §6.4)")
     print(f"  mechanical efficiency    {100.0 * s['mechanical_efficiency']:10.2f} %")
-    print(f"  peak contact force       {s['max_contact_force']:10.1f} N     slot c1-c4 {s['max_slot_force']:.1f} N, "
+    print(f"  peak contact force       {s['max_contact_force']:10.1f} N     rotor c1-c4, c7/c8 {s['max_slot_force']:.1f} N, "
           f"tip c5/c6 {s['max_tip_force']:.1f} N (every internal step); largest at the communication points: "
           f"{s['sampled_peak_region']} ({s['sampled_peak_force']:.1f} N)")
     print(f"  distinct contact modes   {s['revolution_mode_count']:10d}       (regions; "

@@ -407,7 +407,8 @@ def captions(runs: dict, speeds, clearances) -> dict[str, str]:
     for rpm in speeds:
         result[region_figure(rpm)] = (
             f"Regions in contact (penetration > 0) over the last revolution at {rpm:g} rpm, one panel per clearance "
-            f"(cf. thesis Figs 5.21-5.32): c1/c2 slot mouth, c3/c4 vane bottom, c5/c6 tip on its leading/trailing "
+            f"(cf. thesis Figs 5.21-5.32): c1/c2 slot mouth, c3/c4 vane bottom corners on the walls, c5/c6 tip on "
+            f"its leading/trailing "
             f"quarter; distinct modes {', '.join(map(str, modes[rpm]))} for c = "
             f"{', '.join(f'{c:g}' for c in clearances)} mm.")
     return result
@@ -421,7 +422,7 @@ def ledger_caption(ledger_runs: dict) -> str:
             f"friction, contact damping and stored energy (docs/model.md §6.4) for both pressure models and both "
             f"leak laws: the ledger closes to {100 * residual:.3f} % or better at every point; the gap work is "
             f"{100 * min(gap_share):.1f}-{100 * max(gap_share):.1f} % of the shaft power. Peak force per region "
-            f"group (slot c1-c4, tip c5/c6) and the distinct modes counted by regions and by regions plus the "
+            f"group (rotor c1-c4 and c7/c8, tip c5/c6) and the distinct modes counted by regions and by regions plus the "
             f"slot-mouth candidate (docs/model.md §4.6).")
 
 
