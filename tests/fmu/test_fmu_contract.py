@@ -309,6 +309,7 @@ H.emit(out)
 
 
 SAFE_GLUE = PRELUDE + """
+sys.path.append(str(H.TESTS_DIR / "fmu"))             # the crafting helper of the fuzz family
 from test_fmu_fuzz import craft_blob
 host = H.Host($fmu)
 f, vr = host.fmu, {name: v.valueReference for name, v in host.variables.items()}
