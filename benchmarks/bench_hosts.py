@@ -28,6 +28,7 @@ from pathlib import Path
 
 from report import heading, table
 
+from rotary_vane.examples import ecos_host
 from rotary_vane.examples.fmu_harness import ensure_fmus
 
 PROJECT_DIR = Path(__file__).resolve().parent.parent
@@ -58,7 +59,7 @@ execution.add_local_slave(CosimLocalSlave(fmu_path={fmu!r}, instance_name="compr
 assert execution.simulate_until(int(1e6))
 """
 ECOS = """
-import ecos_host
+from rotary_vane.examples import ecos_host
 ecospy = ecos_host.load_ecospy()
 start = time.perf_counter()
 structure = ecospy.EcosSimulationStructure()
@@ -78,7 +79,7 @@ def clean_environment() -> dict[str, str]:
 
 def python_host(body: str) -> float:
     """Seconds the host script reports (from its `start`, before instantiation, to the end of the first step)."""
-    source = f"import sys, time\nsys.path.append({str(TESTS_DIR)!r})\n" + textwrap.dedent(body) + REPORT
+    source = "import time\n" + textwrap.dedent(body) + REPORT
     done = subprocess.run([sys.executable, "-c", source], capture_output=True, text=True, timeout=600)
     match = re.search(r"LATENCY (\S+)", done.stdout)
     if done.returncode != 0 or not match:
@@ -108,8 +109,6 @@ def c_host(fmu: Path, work: Path) -> float:
 
 
 def ecos_command_line(fmu: Path, work: Path) -> float:
-    sys.path.append(str(TESTS_DIR))
-    import ecos_host
     ecos_host.make_executable()
     folder = Path(tempfile.mkdtemp(dir=work))
     shutil.copy(fmu, folder)

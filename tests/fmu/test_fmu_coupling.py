@@ -266,8 +266,7 @@ if engine.startswith("libcosim"):
     del observer, execution                 # before the interpreter exits (libcosim's threads)
     gc.collect()
 elif engine == "ecos":
-    sys.path.append(spec["tests"])
-    import ecos_host
+    from rotary_vane.examples import ecos_host
     ecospy = ecos_host.load_ecospy()
     simulation = ecospy.EcosSimulation(ssp_path=folder, step_size=1e-3)
     assert simulation.init(parameter_set=spec["parameter_set"]), ecospy.EcosLib.get_last_error()

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-import ecos_host
+from rotary_vane.examples import ecos_host
 import fmu_helpers as H
 import system_files
 
@@ -32,7 +32,8 @@ COMPRESSOR_RECORD = ("shaft_torque_mean", "shaft_work", "shaft_angle")
 SYSTEM_RECORD = [f"motor::{n}" for n in MOTOR_RECORD] + [f"compressor::{n}" for n in COMPRESSOR_RECORD]
 
 ECOS_STRUCTURE = """
-import fmu_helpers as H, ecos_host
+import fmu_helpers as H
+from rotary_vane.examples import ecos_host
 ecospy = ecos_host.load_ecospy()
 models, parameters, names, steps = {models!r}, {parameters!r}, {names!r}, {steps!r}
 structure = ecospy.EcosSimulationStructure()
@@ -43,7 +44,8 @@ H.emit(ecos_host.run(ecospy.EcosSimulation(structure=structure, step_size={step!
 """
 
 ECOS_SSP = """
-import fmu_helpers as H, ecos_host
+import fmu_helpers as H
+from rotary_vane.examples import ecos_host
 ecospy = ecos_host.load_ecospy()
 simulation = ecospy.EcosSimulation(ssp_path={folder!r}, step_size={step!r})
 H.emit(ecos_host.run(simulation, {names!r}, {steps!r}, {parameter_set!r}))
@@ -221,7 +223,8 @@ def test_first_step_in_ecos_compiles_no_kernel(fmus):
     script = """
 import time
 from numba.core import event
-import fmu_helpers as H, ecos_host
+import fmu_helpers as H
+from rotary_vane.examples import ecos_host
 ecospy = ecos_host.load_ecospy()
 structure = ecospy.EcosSimulationStructure()
 structure.add_model("compressor", {fmu!r})
