@@ -22,7 +22,6 @@ import fmu_helpers
 import system_files
 
 PROJECT = Path(__file__).resolve().parents[2]
-TESTS = Path(__file__).resolve().parents[1]
 RPM = 2.0 * math.pi / 60.0
 STEP, STOP, MARKS = 1e-3, 0.4, (0.24, 0.32, 0.40)
 INERTIA = 4.0e-3 + 5.5e-4                      # motor + compressor rotor [kg.m2], all on the motor's shaft
@@ -347,6 +346,6 @@ def test_every_engine_applies_every_start_value_of_the_system_file(fmus, tmp_pat
     wanted = {component: {k: "str" if isinstance(v, str) else "real" for k, v in values.items()}
               for component, values in expected.items()}
     result, _ = fmu_helpers.run_json_script(READ_BACK, dict(folder=str(fmus), engine=engine, file=file, wanted=wanted,
-                                                           parameter_set=next(iter(names)), tests=str(TESTS),
+                                                           parameter_set=next(iter(names)),
                                                            archive=str(tmp_path / "motor_compressor.ssp")), fmus)
     assert result == expected
