@@ -189,7 +189,7 @@ class Simulation:
     def _check_valley_volumes(self) -> None:
         """Refuse, before any work, a real-gas machine whose chambers cannot hold gas at the valleys: with a wide
         valley gap the vane straddling the valley line leaves the chamber beside it a negative geometric volume (the
-        pocket beside the vane counts on the other side of the line, docs/model.md §7.2). For the untilted vane at
+        tip's cap above the rotor circle counts against the chamber on its side of the line, docs/model.md §7.2). For the untilted vane at
         the start and the end of a lobe, on its nominal radius or lifted by c_S, centred or against either slot wall,
         at least a quarter of the dead volume must remain (a margin for tilt, measured in tests/mechanics/test_real_gas.py)."""
         p = self.params

@@ -188,9 +188,10 @@ def switch_chambers(y, block, old_inputs, new_inputs, c, table):
 
     the leading chamber (now the dead volume at the valley) becomes the new trailing chamber: its gas fills the new
     trailing volume, expanding adiabatically (T from u at the new density) if that volume is larger; if it is smaller
-    (a wide valley gap: the pocket beside the vane is counted on the other side of the valley line), the trailing
-    chamber keeps the gas at its density and the surplus passes through the valley gap into the new leading chamber
-    (mixed at constant total internal energy). The trailing chamber becomes an idle lobe (vented to the suction
+    (the slot pocket behind the tip is narrower than the one ahead of it when the vane leans towards the trailing
+    wall; with a valley gap the tip's cap across the valley line counts against it), the trailing chamber keeps the
+    gas at its density and the surplus passes over the slot mouth into the new leading chamber, where the pocket
+    ahead of the tip lies at the switch (mixed at constant total internal energy). The trailing chamber becomes an idle lobe (vented to the suction
     plenum); the next idle lobe becomes the new leading chamber at the suction state. The cumulative suction-side
     mass and energy record what was vented and filled. Returns False if a state left the property table or the new
     trailing chamber has no volume.
