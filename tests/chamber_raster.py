@@ -220,11 +220,11 @@ def chamber_areas(params, pose, lobe_start, angles, radii, cells=(1000, 1000), s
     of the polar grid over `angles` = (a0, a1) [rad] x `radii` = (r0, r1) [m] with `cells` = (angle cells, r^2
     cells). The window must reach past the vane and the valley lines on each side (outside it every term
     vanishes: behind the vane and before the lobe, or ahead of it and past the lobe) and below the mouth gaps;
-    a window that cuts a chamber is refused. `sides` (+1 leading, -1 trailing) chooses the chambers to count
-    (a window around the end valley holds the leading chamber of the lobe that ends there and the trailing
-    chamber of the next one, not the others); the other one's terms are NaN. The resolution is the standard deviation bound of the count: a
-    quarter cell area of variance for each cell a boundary crosses (cells whose neighbour, along either grid
-    direction, is classified differently)."""
+    a window that cuts a chamber is refused. `sides` (+1 leading, -1 trailing) chooses the chambers to count (a
+    window around the end valley holds the leading chamber of the lobe that ends there and the trailing chamber of
+    the next one, not the others); the other one's terms are NaN. The resolution bounds the count's standard
+    deviation: a quarter cell area of variance for each cell a boundary crosses (cells whose neighbour, along
+    either grid direction, is classified differently)."""
     shape = vane_shape(params)
     f = _frames(pose, shape)
     n_angle, n_square = cells

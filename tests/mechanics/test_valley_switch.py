@@ -4,7 +4,7 @@ volumes the valley switch identifies (docs/model.md §7.2): the old leading cham
 The library walks each chamber's boundary (Green's theorem); chamber_raster classifies sampled points by membership
 of the stator, the rotor, the vane and the dividing lines. At ordinary poses the two agree to the raster's
 resolution. At the switch the two volumes are the slot-mouth pockets on either side of the tip; they differ by
-2 L eta_T (R_r - r_T) when the tip centre sits eta_T off the slot centreline, and the default machine's vane
+-2 L eta_T (R_r - r_T) when the tip centre sits eta_T off the slot centreline, and the default machine's vane
 leans towards the trailing wall there (docs/model.md §7.2 gives the figures; the bounds below are the ones it states).
 """
 import math
@@ -87,9 +87,9 @@ SWITCH_BOUNDS = {0.0: (0.01, 0.02), 0.05e-3: (0.05, 0.075)}
 def test_switch_volumes_differ_by_the_lean_of_the_vane(clearance, check):
     """At the valley switch of the default machine: the library's old leading and new trailing volumes equal the
     counted ones; their difference, relative to the old leading chamber with the dead volume, lies in the band
-    docs/model.md §7.2 states; the difference of the two slot pockets is 2 L eta_T (R_r - r_T) (the tip centre
-    eta_T off the slot centreline, at radius r_T) to 2 % plus 3 raster standard deviations; the tip's cap above the rotor circle and the contact
-    overlaps change it by less than 0.3 mm^3."""
+    docs/model.md §7.2 states; the difference of the two slot pockets is -2 L eta_T (R_r - r_T) (the tip centre
+    eta_T off the slot centreline, at radius r_T) to 2 % plus 3 raster standard deviations; the tip's cap above
+    the rotor circle and the contact overlaps change it by less than 0.3 mm^3."""
     params = clearance_parameters(clearance)
     lobe = 2.0 * math.pi / params.lobes
     pose = pose_before_first_valley(params)
@@ -115,6 +115,6 @@ def test_switch_volumes_differ_by_the_lean_of_the_vane(clearance, check):
     lean = -2.0 * length * np.dot(tip, [-er[1], er[0]]) * (params.rotor_radius - np.dot(tip, er))
     pockets = length * (old.pocket_leading - new.pocket_trailing)
     noise = length * math.hypot(old.resolution, new.resolution)
-    check("valley switch: pocket difference vs 2 L eta_T (R_r - r_T) [2 % + 3 raster sigmas]",
+    check("valley switch: pocket difference vs -2 L eta_T (R_r - r_T) [2 % + 3 raster sigmas]",
           abs(pockets - lean) / (0.02 * abs(lean) + 3.0 * noise), 1.0)
     check("valley switch: caps and overlaps [mm^3]", abs(difference - pockets) * 1e9, 0.3)
