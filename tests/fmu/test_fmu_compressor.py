@@ -533,6 +533,7 @@ H.emit({"rows": rows})
 """
 
 
+@pytest.mark.slow
 def test_two_versions_of_the_fmu_in_one_process_each_run_their_own_code(fmu, env, short_reference, other_version,
                                                                         tmp_path_factory):
     """A host that runs another version's FMU and then ours (e.g. two compressors in one system): ours gives
@@ -563,6 +564,7 @@ H.emit({"unzipdir": host.unzipdir, "instantiate": t1 - t0, "initialize": t2 - t1
 """
 
 
+@pytest.mark.slow
 def test_fresh_process_loads_the_compiled_kernels_from_the_cache(tmp_path):
     """An FMU without shipped kernels (built --no-kernels; the same path as one whose kernels this machine cannot
     use, tests/fmu/test_fmu_shipped_kernels.py): after the first run on a machine, a new process - whose fmpy unpacks
@@ -686,6 +688,7 @@ def invalid_accesses(log: str, markers: tuple[str, ...]) -> list[str]:
     return [r for r in records if r.startswith("Invalid") and any(marker in r for marker in markers)]
 
 
+@pytest.mark.slow
 def test_fmu_makes_no_invalid_memory_access_in_the_host_up_to_its_exit(fmu, env, short_reference, tmp_path):
     """Under valgrind (deterministic where a crash at exit depends on the memory layout): a host that
     instantiates the FMU, has a parameter refused, gets a step discarded, terminates, frees it and exits makes no

@@ -638,6 +638,7 @@ def test_the_clock_is_exact_over_many_steps(steps):
         assert clock.elapsed == expected, master
 
 
+@pytest.mark.slow
 def test_without_a_c_compiler_the_build_keeps_pythonfmu_and_says_what_is_lost(tmp_path, env):
     """CC pointing to a compiler that does not exist: the FMU is built with pythonfmu's binary, the build says why
     and what the FMU cannot report, and the FMU runs (a bad parameter is then fmi2OK at initialization)."""

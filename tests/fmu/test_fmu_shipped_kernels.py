@@ -107,6 +107,7 @@ H.emit({{}})
     assert len(built) == 3 and not set(built) & set(shipped), (built, shipped)
 
 
+@pytest.mark.slow
 def test_kernels_stamped_for_another_numba_are_not_used_and_the_fmu_says_why(fallback):
     assert "run" in fallback["compiled"], fallback["compiled"]
     for messages in fallback["messages"]:              # one fmi2OK message per instance, at initialization
@@ -118,6 +119,7 @@ def test_kernels_stamped_for_another_numba_are_not_used_and_the_fmu_says_why(fal
     assert any(name.endswith(".nbi") for name in fallback["cached"]["rotary_vane_cache"])
 
 
+@pytest.mark.slow
 def test_shipped_and_locally_compiled_kernels_give_bit_identical_results(shipped, fallback):
     assert list(shipped["rows"]) == list(fallback["rows"]) and len(shipped["rows"]) == 6
     for run, rows in shipped["rows"].items():       # floats round-trip exactly through the JSON text

@@ -293,6 +293,7 @@ def test_nominal_volumes_match_discretised_boundaries(lobes, reference, check):
               1e-9)
 
 
+@pytest.mark.slow
 def test_volumes_are_positive_and_leave_half_the_slot_pocket_at_the_valleys(check):
     """Positivity along the nominal lobe (c = 0 and c = 0.05 mm) for z = 3, 5, 7, 9. At the valleys the tip is
     flush with the rotor and its semicircle leaves an empty pocket in the slot mouth; each chamber keeps half of it:

@@ -284,6 +284,7 @@ print(json.dumps({"coolprop": "CoolProp" in sys.modules, "state": sim.state.toli
 """
 
 
+@pytest.mark.slow
 def test_second_process_runs_real_gas_without_importing_coolprop(tmp_path):
     """Two fresh processes build and advance the default real-gas Simulation with one cache folder: the first
     computes (CoolProp imported), the second loads the operating point and the property table and never imports
