@@ -25,7 +25,7 @@ from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
 from .geometry.stator import law_arguments
 from .loop.integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE,
-                               REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
+                               EVENT_RETRIES, REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
 from .loop.layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
                           MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
                           VY, WORK_IN, WORK_LIMIT, X, Y)
@@ -266,12 +266,12 @@ class Simulation:
         if end_time == self.time:
             return
         start, budget = self.time, work_bound(end_time - self.time, self.work_per_ms)
-        attempts = self.counters[ACCEPTED] + self.counters[REJECTED]
+        attempts = self._attempts()
         while True:
             status, t, rows, records = run(
                 self.time, float(end_time), self.state, self.memory, self.control, self.abm_history, self.window,
                 self.run_dwell, self._work, self._outs, self._rows, self.keep_history, self._record_buffer,
-                self.counters, budget - (self.counters[ACCEPTED] + self.counters[REJECTED] - attempts),
+                self.counters, budget - (self._attempts() - attempts),
                 *self._kernel_context())
             self.time = t
             if rows:
@@ -291,6 +291,10 @@ class Simulation:
                                        t, self.state)
             if status != RECORD_FULL:
                 raise IntegrationError(self._failure_text(status), t, self.state)
+
+    def _attempts(self) -> int:
+        """Step attempts so far: accepted, rejected and redone to land on a contact event."""
+        return int(self.counters[ACCEPTED] + self.counters[REJECTED] + self.counters[EVENT_RETRIES])
 
     def _take_records(self, records: np.ndarray) -> None:
         """Keep the new lobe records (all of them with the history; in any case the last 2z - 1, which hold the

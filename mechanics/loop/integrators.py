@@ -33,14 +33,16 @@ from .speed import ramp_end_time, rotor_motion, time_of_angle
 from .windows import accumulate, close_window
 
 # counters shared with Python
-ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS = range(6)
-COUNTER_SIZE = 6
+ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS, EVENT_RETRIES = range(7)
+COUNTER_SIZE = 7
 # control values kept between advances
 CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
 CONTROL_SIZE = 4
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
-NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
+NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT, CONTACT_EVENT = range(5)
+NO_SLOT = -1                        # no contact slot landed on (_update_memory)
+ROOT_SAMPLES = 8                    # sign samples of the penetration's cubic before bisection (_penetration_root)
 TIME_RESOLUTION = 16.0 * np.finfo(np.float64).eps      # the smallest step relative to the time (smallest_step)
 
 # Dormand-Prince 5(4) (Hairer, Norsett, Wanner, Solving ODEs I, Table 5.2): nodes C, coefficients A (the last row
@@ -95,8 +97,9 @@ def _all_finite(values, count):
 
 
 @kernel
-def _clip_to_events(t, step, t_end, law, memory, m):
-    """Shorten the step to land on the next event inside it; return (step, event kind)."""
+def _clip_to_events(t, step, t_end, law, memory, m, contact_time):
+    """Shorten the step to land on the next event inside it (contact_time: a located contact onset or separation,
+    inf if none); return (step, event kind)."""
     event = NO_EVENT
     if t + step >= t_end:
         step = t_end - t
@@ -109,35 +112,105 @@ def _clip_to_events(t, step, t_end, law, memory, m):
     if rotor_motion(t + step, law)[0] >= next_valley:
         step = time_of_angle(next_valley, t, t + step, law) - t
         event = VALLEY_EVENT
+    if contact_time < t + step:
+        step = contact_time - t
+        event = CONTACT_EVENT
     return step, event
 
 
 @kernel
-def _opened_too_deep(out, memory, m):
-    """True if a contact that was open at the start of the step closed with delta > max_onset_penetration."""
+def _slot_gap(row, slot):
+    """(penetration, its rate) of a memory slot in an output row: the deepest of the regions sharing the slot (c5/c6
+    are one tip contact, docs/model.md §5.1); NaN if no region of the slot has a candidate."""
+    gap = math.nan
+    rate = math.nan
     for region in range(REGION_COUNT):
-        if out[O.penetration + region] > m.max_onset_penetration \
-                and memory[MEM_ONSET_VELOCITY + REGION_MEMORY_SLOT[region]] <= 0.0:
-            return True
-    return False
+        delta = row[O.penetration + region]
+        if REGION_MEMORY_SLOT[region] == slot and math.isfinite(delta) and not delta <= gap:
+            gap = delta
+            rate = row[O.penetration_rate + region]
+    return gap, rate
 
 
 @kernel
-def _update_memory(out, memory, m):
-    """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed."""
+def _penetration_root(start, start_rate, end, end_rate, step):
+    """The earliest s in (0, 1] where the cubic Hermite p(s) through (start, step start_rate) at s = 0 and (end,
+    step end_rate) at s = 1 changes sign from that of `start` (their signs differ): ROOT_SAMPLES sign samples, then
+    bisection to the resolution of s (docs/model.md §8.2, events)."""
+    closed = start > 0.0
+    low = 0.0
+    high = 1.0
+    for k in range(1, ROOT_SAMPLES + 1):
+        high = k / ROOT_SAMPLES
+        if (_hermite(high, start, start_rate, end, end_rate, step) > 0.0) != closed:
+            break
+        low = high
+    while high - low > 4.0 * np.finfo(np.float64).eps:
+        middle = 0.5 * (low + high)
+        if (_hermite(middle, start, start_rate, end, end_rate, step) > 0.0) != closed:
+            high = middle
+        else:
+            low = middle
+    return high
+
+
+@kernel
+def _hermite(s, start, start_rate, end, end_rate, step):
+    """The cubic Hermite interpolant at s in [0, 1] of values start, end and slopes start_rate, end_rate (per unit
+    time) over a step of length `step`."""
+    s2 = s * s
+    s3 = s2 * s
+    return ((2.0 * s3 - 3.0 * s2 + 1.0) * start + (s3 - 2.0 * s2 + s) * step * start_rate
+            + (-2.0 * s3 + 3.0 * s2) * end + (s3 - s2) * step * end_rate)
+
+
+@kernel
+def _earliest_contact_change(start_row, end_row, memory, step, landed_slot):
+    """(s, slot) of the earliest located contact onset or separation inside the step, as a fraction s of it, or
+    (inf, NO_SLOT) if none (docs/model.md §8.2, events). A slot changes when its penetration's sign at the step end
+    differs from its memory (closed: a stored impact velocity) and from its sign at the step start; the time of
+    delta = 0 is the root of the cubic Hermite through delta and its rate at both ends. The slot the step landed
+    on is not tested again (its delta there is 0 up to round-off, of either sign). A change whose start and end
+    signs agree (a slot whose landing was undone at once, or without a candidate at the start) is not located:
+    _update_memory takes it at the step end."""
+    earliest = math.inf
+    earliest_slot = NO_SLOT
+    for slot in range(MEMORY_SLOTS):
+        if slot == landed_slot:
+            continue
+        end, end_rate = _slot_gap(end_row, slot)
+        touching = end > 0.0
+        if touching == (memory[MEM_ONSET_VELOCITY + slot] > 0.0):
+            continue
+        start, start_rate = _slot_gap(start_row, slot)
+        if (start > 0.0) == touching or not (math.isfinite(start_rate) and math.isfinite(end_rate)):
+            continue
+        s = _penetration_root(start, start_rate, end, end_rate, step)
+        if s < earliest:
+            earliest = s
+            earliest_slot = slot
+    return earliest, earliest_slot
+
+
+@kernel
+def _update_memory(out, memory, m, landed_slot):
+    """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed.
+    The slot the step landed on (a located event) opens or closes: at an onset delta_dot^- = max(|delta_dot|,
+    v_floor) at the event, at a separation it is cleared. Any other slot whose contact changed without a located
+    event (_earliest_contact_change) is updated from the step end the same way."""
     memory[MEM_CLOSEST_OFFSET] = out[O.closest_parameter_offset]
     for slot in range(MEMORY_SLOTS):
-        touching = False
-        rate = 0.0
-        for region in range(REGION_COUNT):       # the regions sharing a slot touch one at a time (c5/c6)
-            if REGION_MEMORY_SLOT[region] == slot and out[O.penetration + region] > 0.0:
-                touching = True
-                rate = out[O.penetration_rate + region]
+        gap, rate = _slot_gap(out, slot)
         index = MEM_ONSET_VELOCITY + slot
+        closed = memory[index] > 0.0
+        if slot == landed_slot:
+            touching = not closed
+        else:
+            touching = gap > 0.0
         if not touching:
             memory[index] = 0.0
-        elif memory[index] <= 0.0:
-            memory[index] = max(abs(rate), m.onset_velocity_floor)
+        elif not closed:
+            memory[index] = max(abs(rate), m.onset_velocity_floor) if math.isfinite(rate) else m.onset_velocity_floor
     memory[MEM_LAW_EXCESS] = max(memory[MEM_LAW_EXCESS], out[O.contact_law_excess])
     changed = out[O.contact_mode] != memory[MEM_MODE]
     memory[MEM_MODE] = out[O.contact_mode]
@@ -391,9 +464,9 @@ def smallest_step(t, m):
 
 
 @kernel
-def _step_rejected(err, failure, out, memory, m):
-    """A step is rejected when its error is too large, its state invalid, or a contact opened too deep."""
-    return err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m)
+def _step_rejected(err, failure):
+    """A step is rejected when its error is too large or its state invalid."""
+    return err > 1.0 or failure != 0
 
 
 @kernel
@@ -427,6 +500,8 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     method_begin(method, control, history, work, n)
     rejected_last = False
     attempts = 0
+    contact_time = math.inf          # a located contact event ahead (docs/model.md §8.2, events)
+    contact_slot = NO_SLOT
     while t < t_end:
         if (keep_rows and rows >= rows_out.shape[0]) or records >= lobe_records.shape[0]:
             return RECORD_FULL, t, rows, records
@@ -434,13 +509,13 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
             return WORK_LIMIT, t, rows, records
         attempts += 1
         control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
-        step, event = _clip_to_events(t, control[CONTROL_STEP], t_end, ctx.law, memory, m)
+        step, event = _clip_to_events(t, control[CONTROL_STEP], t_end, ctx.law, memory, m, contact_time)
         failure, err = method_attempt(method, t, step, event, y, ctx, memory, control, history, work, work_rows, out,
                                       counters)
         finite = _all_finite(work_rows[W_Y_NEW], n) and _all_finite(work_rows[STAGES - 1], n)
         if not finite:
             err = math.inf
-        if _step_rejected(err, failure, out, memory, m):
+        if _step_rejected(err, failure):
             counters[REJECTED] += 1
             rejected_last = True
             control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
@@ -449,11 +524,23 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
                     return failure, t, rows, records
                 return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
             continue
+        landed_slot = contact_slot if event == CONTACT_EVENT else NO_SLOT
+        s, slot = _earliest_contact_change(scratch, out, memory, step, landed_slot)
+        if slot != NO_SLOT:
+            if (1.0 - s) * step > smallest_step(t, m):
+                contact_time = t + s * step          # redo the step to end on the contact change
+                contact_slot = slot
+                counters[EVENT_RETRIES] += 1
+                continue
+            landed_slot = slot                       # the change is at the step end
+        contact_time = math.inf
+        contact_slot = NO_SLOT
         counters[ACCEPTED] += 1
         t = t_end if event == END_EVENT else t + step
         copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
         copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
-        mode_changed = _update_memory(out, memory, m)
+        copy_values(scratch, 0, out, 0, out.size)
+        mode_changed = _update_memory(out, memory, m, landed_slot)
         counters[MODE_CHANGES] += mode_changed
         _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows)
         rows += 1
