@@ -38,6 +38,11 @@ COUNTER_SIZE = 7
 # control values kept between advances
 CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
 CONTROL_SIZE = 4
+# step-grid replay (docs/model.md §8.2): grid_counts holds the number of step end times to follow, the index of the
+# next one, the number recorded by this advance and whether the replay fell back to adaptive steps
+GRID_FOLLOW, GRID_NEXT, GRID_RECORDED, GRID_FELL_BACK = range(4)
+GRID_COUNTS_SIZE = 4
+REPLAY_ERROR_LIMIT = 10.0           # a replayed step whose scaled error exceeds this ends the replay
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT, CONTACT_EVENT = range(5)
@@ -470,6 +475,32 @@ def _step_rejected(err, failure):
 
 
 @kernel
+def _replay_step(t, grid, grid_counts):
+    """(True, the step to the next step end time to follow) while a replayed grid lasts, else (False, 0)."""
+    index = grid_counts[GRID_NEXT]
+    if index < grid_counts[GRID_FOLLOW]:
+        return True, grid[index] - t
+    return False, 0.0
+
+
+@kernel
+def _after_replayed_step(t, grid, grid_counts):
+    """Move past the followed step end times that t has reached."""
+    while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW] and grid[grid_counts[GRID_NEXT]] <= t:
+        grid_counts[GRID_NEXT] += 1
+
+
+@kernel
+def _record_step_end(t, recorded, grid_counts):
+    """Record the end time of a step the step control chose (not clipped by an event); past the capacity the count
+    grows beyond it, which marks the record incomplete."""
+    count = grid_counts[GRID_RECORDED]
+    if count < recorded.size:
+        recorded[count] = t
+    grid_counts[GRID_RECORDED] = count + 1
+
+
+@kernel
 def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
     """Accumulate the lobe window (mechanics.loop.windows) and write the output row (row 0 unless keep_rows)."""
     accumulate(window, run_dwell, out)
@@ -480,7 +511,7 @@ def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
 
 @kernel
 def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, out, scratch, rows_out,
-            keep_rows, lobe_records, counters, max_attempts):
+            keep_rows, lobe_records, counters, max_attempts, grid, recorded, grid_counts):
     """Integrate from t to t_end with the machine's method (module docstring; the methods above). y, memory,
     control, history, window, run_dwell and counters are updated in place; work is the workspace (WORKSPACE_ROWS
     rows) and work_rows the same rows as a tuple of arrays (a function without reference counting cannot take
@@ -488,6 +519,11 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     only the last in rows_out[0]), lobe records to lobe_records. At most max_attempts steps are attempted
     (accepted or rejected): then the status is WORK_LIMIT, so that no state (a step size of 0 or 5e-324, a time
     that does not advance) can make the loop spin.
+    Step-grid replay (docs/model.md §8.2): while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW] the steps end at
+    the times grid[GRID_NEXT:GRID_FOLLOW] (events still clip them; the step after an event goes to the next time)
+    and are accepted without error control unless their scaled error exceeds REPLAY_ERROR_LIMIT: then the replay
+    ends (GRID_FELL_BACK) and the step control takes over. The end times of the steps the step control chose (not
+    clipped by an event) are recorded in `recorded` (count in grid_counts[GRID_RECORDED]).
     Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number."""
     m = ctx.machine[0]
     method = m.integrator
@@ -508,13 +544,23 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
         if attempts >= max_attempts:
             return WORK_LIMIT, t, rows, records
         attempts += 1
-        control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
-        step, event = _clip_to_events(t, control[CONTROL_STEP], t_end, ctx.law, memory, m, contact_time)
+        replaying, proposed = _replay_step(t, grid, grid_counts)
+        if not replaying:
+            control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
+            proposed = control[CONTROL_STEP]
+        step, event = _clip_to_events(t, proposed, t_end, ctx.law, memory, m, contact_time)
         failure, err = method_attempt(method, t, step, event, y, ctx, memory, control, history, work, work_rows, out,
                                       counters)
         finite = _all_finite(work_rows[W_Y_NEW], n) and _all_finite(work_rows[STAGES - 1], n)
         if not finite:
             err = math.inf
+        if replaying:
+            if err <= REPLAY_ERROR_LIMIT and failure == 0:
+                err = min(err, 1.0)
+            else:
+                grid_counts[GRID_FOLLOW] = grid_counts[GRID_NEXT]      # the replay ends here
+                grid_counts[GRID_FELL_BACK] = 1
+                control[CONTROL_STEP] = step
         if _step_rejected(err, failure):
             counters[REJECTED] += 1
             rejected_last = True
@@ -528,7 +574,7 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
         s, slot = _earliest_contact_change(scratch, out, memory, step, landed_slot)
         if slot != NO_SLOT:
             if (1.0 - s) * step > smallest_step(t, m):
-                contact_time = t + s * step          # redo the step to end on the contact change
+                contact_time = t + max(s * step, smallest_step(t, m))   # redo the step to end on the change
                 contact_slot = slot
                 counters[EVENT_RETRIES] += 1
                 continue
@@ -536,7 +582,15 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
         contact_time = math.inf
         contact_slot = NO_SLOT
         counters[ACCEPTED] += 1
-        t = t_end if event == END_EVENT else t + step
+        if event == END_EVENT:
+            t = t_end
+        elif replaying and event == NO_EVENT:
+            t = grid[grid_counts[GRID_NEXT]]
+        else:
+            t = t + step
+        if event == NO_EVENT:
+            _record_step_end(t, recorded, grid_counts)
+        _after_replayed_step(t, grid, grid_counts)
         copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
         copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
         copy_values(scratch, 0, out, 0, out.size)
@@ -580,14 +634,14 @@ def context(machine, law, pressure_table, chambers, flow_work, table_scalars, ta
 
 @kernel(allocates=True)
 def run(t, t_end, y, memory, control, history, window, run_dwell, work, outs, rows_out, keep_rows, lobe_records,
-        counters, max_attempts, *context_arrays):
+        counters, max_attempts, grid, recorded, grid_counts, *context_arrays):
     """`advance` with its context (the arrays of `context`, in its order) and workspace given as arrays (the entry
     point mechanics.simulation calls): the named records and the tuple of workspace rows are built here, once per
     advance."""
     ctx = context(*context_arrays)
     work_rows = (work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10])
     return advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, outs[0], outs[1],
-                   rows_out, keep_rows, lobe_records, counters, max_attempts)
+                   rows_out, keep_rows, lobe_records, counters, max_attempts, grid, recorded, grid_counts)
 
 
 @kernel(allocates=True)
