@@ -3,9 +3,10 @@ with RK4 start (docs/model.md §8.2).
 
 `advance` is entered once per advance and runs until the end time, a full output buffer or a failure. It owns
 what every method shares, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
-to land on them; a step is rejected when its error is too large, when a contact opened deeper than
-max_onset_penetration, or when the state is invalid; after an accepted step the memory (warm start, impact
-velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.loop.windows) and,
+to land on them, and so do contact onsets and separations (a step that changes a contact is redone to end at the
+located change); a step is rejected when its error is too large or the state is invalid; after an accepted step
+the memory (warm start, impact velocities, mode, lobe) is updated, the output row recorded, the lobe window
+accumulated (mechanics.loop.windows) and,
 at a valley, the lobe record written and the chambers switched. A method is a set of kernels with one signature
 each (begin, bounded step, attempt, after rejection, after acceptance: the block "The methods" below):
 `dopri5_*` from the tableau below (as scipy's RungeKutta classes do), `abm4_*` as Adams-Bashforth predictor and
