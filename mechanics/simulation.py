@@ -26,7 +26,7 @@ from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
 from .geometry.stator import law_arguments
 from .loop.integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE,
-                               EVENT_RETRIES, GRID_COUNTS_SIZE, GRID_FELL_BACK, GRID_FOLLOW, GRID_RECORDED, REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
+                               EVENT_RETRIES, GRID_COLUMNS, GRID_COUNTS_SIZE, GRID_FELL_BACK, GRID_FOLLOW, GRID_RECORDED, REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
 from .loop.layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
                           MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
                           VY, WORK_IN, WORK_LIMIT, X, Y)
@@ -39,7 +39,7 @@ from .loop.speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed,
 from .loop.windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZE, WINDOW_ACCUMULATORS,
                            new_window)
 
-GRID_CAPACITY = 8192            # step end times one advance records for replay (longer advances are not replayed)
+GRID_CAPACITY = 8192            # steps one advance records for replay (longer advances are not replayed)
 KEPT_GRIDS = 4                  # the latest recorded grids kept for replay
 GRID_METHODS = ("dopri5",)      # the methods whose step may follow a given grid (ABM4's history is at one spacing)
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
@@ -155,10 +155,10 @@ class Simulation:
         self._outs = np.zeros((2, OUTPUT_SIZE))
         self._rows = np.empty((HISTORY_CHUNK if keep_history else 1, OUTPUT_SIZE))
         self._record_buffer = np.empty((RECORD_CHUNK, RECORD_SIZE))
-        self._grid = np.empty(GRID_CAPACITY)                 # the step end times to follow (replay)
-        self._recorded_grid = np.empty(GRID_CAPACITY)        # those this advance chose
+        self._grid = np.empty((GRID_CAPACITY, GRID_COLUMNS))      # the steps to follow (replay)
+        self._recorded_grid = np.empty((GRID_CAPACITY, GRID_COLUMNS))     # those this advance chose
         self._grid_counts = np.zeros(GRID_COUNTS_SIZE, dtype=np.int64)
-        self._grids: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}     # start key -> (step end times, control)
+        self._grids: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}     # start key -> (steps, control)
         self.replay_fallbacks = 0            # replays whose error exceeded the limit (docs/model.md §8.2)
         self._chunks: list[np.ndarray] = []
         self._records: list[np.ndarray] = []
@@ -322,8 +322,8 @@ class Simulation:
         counts[:] = 0
         grid = self._grids.get(key) if key is not None else None
         if grid is not None:
-            self._grid[:grid[0].size] = grid[0]
-            counts[GRID_FOLLOW] = grid[0].size
+            self._grid[:len(grid[0])] = grid[0]
+            counts[GRID_FOLLOW] = len(grid[0])
         return grid is not None
 
     def _finish_grid(self, key: bytes | None, replayed: bool) -> None:

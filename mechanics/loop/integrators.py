@@ -43,11 +43,14 @@ CONTROL_SIZE = 4
 # next one, the number recorded by this advance and whether the replay fell back to adaptive steps
 GRID_FOLLOW, GRID_NEXT, GRID_RECORDED, GRID_FELL_BACK = range(4)
 GRID_COUNTS_SIZE = 4
+# the columns of a recorded grid: each step's start, size, end and whether it was redone to land on a contact change
+GRID_START, GRID_STEP, GRID_END, GRID_REDONE = range(4)
+GRID_COLUMNS = 4
 REPLAY_ERROR_LIMIT = 10.0           # a replayed step whose scaled error exceeds this ends the replay
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT, CONTACT_EVENT = range(5)
-NO_SLOT = -1                        # no contact slot landed on (_update_memory)
+NO_SLOT = -1                        # no contact change to redo the step to (_contact_changes)
 ROOT_SAMPLES = 8                    # sign samples of the penetration's cubic before bisection (_penetration_root)
 TIME_RESOLUTION = 16.0 * np.finfo(np.float64).eps      # the smallest step relative to the time (smallest_step)
 
@@ -171,18 +174,21 @@ def _hermite(s, start, start_rate, end, end_rate, step):
 
 
 @kernel
-def _earliest_contact_change(start_row, end_row, memory, step, landed_slot):
-    """(s, slot) of the earliest located contact onset or separation inside the step, as a fraction s of it, or
-    (inf, NO_SLOT) if none (docs/model.md §8.2, events). A slot changes when its penetration's sign at the step end
-    differs from its memory (closed: a stored impact velocity) and from its sign at the step start; the time of
-    delta = 0 is the root of the cubic Hermite through delta and its rate at both ends. The slot the step landed
-    on is not tested again (its delta there is 0 up to round-off, of either sign). A change whose start and end
-    signs agree (a slot whose landing was undone at once, or without a candidate at the start) is not located:
-    _update_memory takes it at the step end."""
+def _contact_changes(start_row, end_row, memory, step, landed, resolution):
+    """(s, slot, at_end): the earliest contact onset or separation inside the step to redo the step to, as a fraction
+    s of it and its memory slot (inf, NO_SLOT if none), and the bit mask of the slots whose change is taken at the
+    step end (docs/model.md §8.2, events). A slot changes when its penetration's sign at the step end differs from
+    its memory (closed: a stored impact velocity) and from its sign at the step start; the time of delta = 0 is the
+    root of the cubic Hermite through delta and its rate at both ends. A root within `resolution` (a fraction of
+    the step) of either end is taken at the step end: no contact change makes a step shorter than h_min. The slots
+    in the mask `landed` (the step ended on their located change) are not tested again: their delta there is 0 up
+    to round-off, of either sign. A change whose start and end signs agree (a landing undone at once, or a slot
+    without a candidate at the start) is not located: it is taken at the step end by _update_memory."""
     earliest = math.inf
     earliest_slot = NO_SLOT
+    at_end = 0
     for slot in range(MEMORY_SLOTS):
-        if slot == landed_slot:
+        if landed & (1 << slot):
             continue
         end, end_rate = _slot_gap(end_row, slot)
         touching = end > 0.0
@@ -192,24 +198,26 @@ def _earliest_contact_change(start_row, end_row, memory, step, landed_slot):
         if (start > 0.0) == touching or not (math.isfinite(start_rate) and math.isfinite(end_rate)):
             continue
         s = _penetration_root(start, start_rate, end, end_rate, step)
-        if s < earliest:
+        if s <= resolution or s >= 1.0 - resolution:
+            at_end |= 1 << slot
+        elif s < earliest:
             earliest = s
             earliest_slot = slot
-    return earliest, earliest_slot
+    return earliest, earliest_slot, at_end
 
 
 @kernel
-def _update_memory(out, memory, m, landed_slot):
+def _update_memory(out, memory, m, landed):
     """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed.
-    The slot the step landed on (a located event) opens or closes: at an onset delta_dot^- = max(|delta_dot|,
-    v_floor) at the event, at a separation it is cleared. Any other slot whose contact changed without a located
-    event (_earliest_contact_change) is updated from the step end the same way."""
+    The slots in the bit mask `landed` (the step ended on their located change) open or close: at an onset
+    delta_dot^- = max(|delta_dot|, v_floor) at the event, at a separation it is cleared. Any other slot whose contact
+    changed without a located event (_contact_changes) is updated from the step end the same way."""
     memory[MEM_CLOSEST_OFFSET] = out[O.closest_parameter_offset]
     for slot in range(MEMORY_SLOTS):
         gap, rate = _slot_gap(out, slot)
         index = MEM_ONSET_VELOCITY + slot
         closed = memory[index] > 0.0
-        if slot == landed_slot:
+        if landed & (1 << slot):
             touching = not closed
         else:
             touching = gap > 0.0
@@ -477,27 +485,39 @@ def _step_rejected(err, failure):
 
 @kernel
 def _replay_step(t, grid, grid_counts):
-    """(True, the step to the next step end time to follow) while a replayed grid lasts, else (False, 0)."""
+    """(True, the step to the next step end to follow) while a replayed grid lasts, else (False, 0): the recorded
+    step from its recorded start (so a replay at the recorded input repeats the recorded advance bit for bit), else
+    the step to the recorded end."""
     index = grid_counts[GRID_NEXT]
     if index < grid_counts[GRID_FOLLOW]:
-        return True, grid[index] - t
+        if t == grid[index, GRID_START]:
+            return True, grid[index, GRID_STEP]
+        return True, grid[index, GRID_END] - t
     return False, 0.0
 
 
 @kernel
 def _after_replayed_step(t, grid, grid_counts):
-    """Move past the followed step end times that t has reached."""
-    while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW] and grid[grid_counts[GRID_NEXT]] <= t:
+    """Move past the followed steps that t has reached, and past a step redone for a contact change once t has
+    left its start (the step that landed on the change has been taken)."""
+    while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW]:
+        index = grid_counts[GRID_NEXT]
+        if not (grid[index, GRID_END] <= t or (grid[index, GRID_REDONE] != 0.0 and grid[index, GRID_START] < t)):
+            break
         grid_counts[GRID_NEXT] += 1
 
 
 @kernel
-def _record_step_end(t, recorded, grid_counts):
-    """Record the end time of a step the step control chose (not clipped by an event); past the capacity the count
-    grows beyond it, which marks the record incomplete."""
+def _record_step(start, step, end, redone, recorded, grid_counts):
+    """Record a step the step control chose (not clipped by an event) that passed the error control: accepted, or
+    redone to land on a contact change; past the capacity the count grows beyond it, which marks the record
+    incomplete."""
     count = grid_counts[GRID_RECORDED]
-    if count < recorded.size:
-        recorded[count] = t
+    if count < recorded.shape[0]:
+        recorded[count, GRID_START] = start
+        recorded[count, GRID_STEP] = step
+        recorded[count, GRID_END] = end
+        recorded[count, GRID_REDONE] = 1.0 if redone else 0.0
     grid_counts[GRID_RECORDED] = count + 1
 
 
@@ -520,11 +540,13 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     only the last in rows_out[0]), lobe records to lobe_records. At most max_attempts steps are attempted
     (accepted or rejected): then the status is WORK_LIMIT, so that no state (a step size of 0 or 5e-324, a time
     that does not advance) can make the loop spin.
-    Step-grid replay (docs/model.md §8.2): while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW] the steps end at
-    the times grid[GRID_NEXT:GRID_FOLLOW] (events still clip them; the step after an event goes to the next time)
+    Step-grid replay (docs/model.md §8.2): while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW] the steps follow
+    the recorded steps grid[GRID_NEXT:GRID_FOLLOW] (events still clip them; the step after an event goes to the next
+    recorded end)
     and are accepted without error control unless their scaled error exceeds REPLAY_ERROR_LIMIT: then the replay
     ends (GRID_FELL_BACK) and the step control takes over. The end times of the steps the step control chose (not
-    clipped by an event) are recorded in `recorded` (count in grid_counts[GRID_RECORDED]).
+    clipped by an event) are recorded in `recorded` (start, size, end, redone; count in grid_counts[GRID_RECORDED]), with
+    the steps redone to land on a contact change: a replay at the recorded input repeats the advance bit for bit.
     Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number."""
     m = ctx.machine[0]
     method = m.integrator
@@ -571,31 +593,33 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
                     return failure, t, rows, records
                 return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
             continue
-        landed_slot = contact_slot if event == CONTACT_EVENT else NO_SLOT
-        s, slot = _earliest_contact_change(scratch, out, memory, step, landed_slot)
+        landed = (1 << contact_slot) if event == CONTACT_EVENT else 0
+        s, slot, at_end = _contact_changes(scratch, out, memory, step, landed, smallest_step(t, m) / step)
         if slot != NO_SLOT:
-            if (1.0 - s) * step > smallest_step(t, m):
-                contact_time = t + max(s * step, smallest_step(t, m))   # redo the step to end on the change
-                contact_slot = slot
-                counters[EVENT_RETRIES] += 1
-                continue
-            landed_slot = slot                       # the change is at the step end
+            contact_time = t + s * step              # redo the step to end on the earliest contact change
+            contact_slot = slot
+            counters[EVENT_RETRIES] += 1
+            if event == NO_EVENT:
+                _record_step(t, step, t + step, True, recorded, grid_counts)
+            continue
+        landed |= at_end
         contact_time = math.inf
         contact_slot = NO_SLOT
         counters[ACCEPTED] += 1
+        start = t
         if event == END_EVENT:
             t = t_end
         elif replaying and event == NO_EVENT:
-            t = grid[grid_counts[GRID_NEXT]]
+            t = grid[grid_counts[GRID_NEXT], GRID_END]
         else:
             t = t + step
         if event == NO_EVENT:
-            _record_step_end(t, recorded, grid_counts)
+            _record_step(start, step, t, False, recorded, grid_counts)
         _after_replayed_step(t, grid, grid_counts)
         copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
         copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
         copy_values(scratch, 0, out, 0, out.size)
-        mode_changed = _update_memory(out, memory, m, landed_slot)
+        mode_changed = _update_memory(out, memory, m, landed)
         counters[MODE_CHANGES] += mode_changed
         _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows)
         rows += 1
