@@ -128,8 +128,6 @@ class CompressorParameters:
                                      "factor on all absolute tolerances of docs/model.md §8.2 (positions 1e-9 m, ...)")
     initial_step: float = _number(1e-6, "s", 1e-10, 2e-4, "first step size h_0")
     max_step: float = _number(2e-5, "s", 1e-8, 2e-4, "largest step h_max")
-    max_onset_penetration: float = _number(1e-6, "m", 1e-9, 1e-4,
-                                           "largest penetration allowed in the step where a contact opens")
     mode_dwell_time: float = _number(10e-6, "s", 0.0, 1e-2, "minimum cumulative dwell tau_min of a counted mode")
 
     def __post_init__(self):

@@ -7,6 +7,7 @@ saving and restoring a run is a copy, and an advance is one call of the compiled
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 import warnings
@@ -25,7 +26,7 @@ from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
 from .geometry.stator import law_arguments
 from .loop.integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE,
-                               REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
+                               EVENT_RETRIES, GRID_COLUMNS, GRID_COUNTS_SIZE, GRID_FELL_BACK, GRID_FOLLOW, GRID_RECORDED, REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
 from .loop.layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_LOBE_COUNT, MEM_LOBE_START,
                           MEMORY_SIZE, REACHED_END, REAL_GAS_STATE_SIZE, RECORD_FULL, STATUS_TEXT, VANE_STATE_SIZE, VX,
                           VY, WORK_IN, WORK_LIMIT, X, Y)
@@ -38,6 +39,9 @@ from .loop.speed import CONSTANT, LINEAR, SpeedLaw, check_speed, constant_speed,
 from .loop.windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_SIZE, WINDOW_ACCUMULATORS,
                            new_window)
 
+GRID_CAPACITY = 8192            # steps one advance records for replay (longer advances are not replayed)
+KEPT_GRIDS = 4                  # the latest recorded grids kept for replay
+GRID_METHODS = ("dopri5",)      # the methods whose step may follow a given grid (ABM4's history is at one spacing)
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
 LOG = logging.getLogger(__name__)
@@ -151,6 +155,11 @@ class Simulation:
         self._outs = np.zeros((2, OUTPUT_SIZE))
         self._rows = np.empty((HISTORY_CHUNK if keep_history else 1, OUTPUT_SIZE))
         self._record_buffer = np.empty((RECORD_CHUNK, RECORD_SIZE))
+        self._grid = np.empty((GRID_CAPACITY, GRID_COLUMNS))      # the steps to follow (replay)
+        self._recorded_grid = np.empty((GRID_CAPACITY, GRID_COLUMNS))     # those this advance chose
+        self._grid_counts = np.zeros(GRID_COUNTS_SIZE, dtype=np.int64)
+        self._grids: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}     # start key -> (steps, control)
+        self.replay_fallbacks = 0            # replays whose error exceeded the limit (docs/model.md §8.2)
         self._chunks: list[np.ndarray] = []
         self._records: list[np.ndarray] = []
         self.recent_records = np.empty((0, RECORD_SIZE))
@@ -261,18 +270,20 @@ class Simulation:
                 or end_time < self.time:
             raise ValueError(f"'end_time' = {end_time!r} s is invalid: allowed a finite time >= the current time "
                              f"{self.time!r} s")
+        key = self._grid_key(float(end_time))          # of the state before the input acts on it
         if speed_rpm is not None:
             self._speed_for_advance(float(end_time), speed_rpm, interpolate)
         if end_time == self.time:
             return
+        replayed = self._start_grid(key)
         start, budget = self.time, work_bound(end_time - self.time, self.work_per_ms)
-        attempts = self.counters[ACCEPTED] + self.counters[REJECTED]
+        attempts = self._attempts()
         while True:
             status, t, rows, records = run(
                 self.time, float(end_time), self.state, self.memory, self.control, self.abm_history, self.window,
                 self.run_dwell, self._work, self._outs, self._rows, self.keep_history, self._record_buffer,
-                self.counters, budget - (self.counters[ACCEPTED] + self.counters[REJECTED] - attempts),
-                *self._kernel_context())
+                self.counters, budget - (self._attempts() - attempts), self._grid, self._recorded_grid,
+                self._grid_counts, *self._kernel_context())
             self.time = t
             if rows:
                 last = self._rows[rows - 1] if self.keep_history else self._rows[0]
@@ -283,6 +294,7 @@ class Simulation:
                 self._take_records(self._record_buffer[:records])
             self._note_law_excess(records)
             if status == REACHED_END:
+                self._finish_grid(key, replayed)
                 return
             if status == WORK_LIMIT:
                 raise IntegrationError(f"{self._failure_text(status)}: {budget} attempts for the "
@@ -291,6 +303,49 @@ class Simulation:
                                        t, self.state)
             if status != RECORD_FULL:
                 raise IntegrationError(self._failure_text(status), t, self.state)
+
+    # step-grid replay (docs/model.md §8.2) ------------------------------------------------------------------
+    def _grid_key(self, end_time: float) -> bytes | None:
+        """The replay key of an advance to `end_time` from the current state: a hash of the time, the state, the
+        memory and the step control (not the speed law: the input may differ between replays), or None if this
+        method does not follow grids."""
+        if self.params.integrator not in GRID_METHODS:
+            return None
+        digest = hashlib.blake2b(np.array([self.time, end_time]).tobytes(), digest_size=16)
+        for values in (self.state, self.memory, self.control):
+            digest.update(values.tobytes())
+        return digest.digest()
+
+    def _start_grid(self, key: bytes | None) -> bool:
+        """Load the grid recorded from this start, if any (then the advance replays it); returns whether it did."""
+        counts = self._grid_counts
+        counts[:] = 0
+        grid = self._grids.get(key) if key is not None else None
+        if grid is not None:
+            self._grid[:len(grid[0])] = grid[0]
+            counts[GRID_FOLLOW] = len(grid[0])
+        return grid is not None
+
+    def _finish_grid(self, key: bytes | None, replayed: bool) -> None:
+        """Keep the grid of an adaptive advance (the latest KEPT_GRIDS); after a replay that held, end with the step
+        control the recorded advance ended with, so the state after the step does not depend on the replay."""
+        counts = self._grid_counts
+        if key is None:
+            return
+        if replayed:
+            if counts[GRID_FELL_BACK]:
+                self.replay_fallbacks += 1
+            else:
+                self.control[:] = self._grids[key][1]
+            return
+        if counts[GRID_RECORDED] <= GRID_CAPACITY:
+            self._grids[key] = (self._recorded_grid[:counts[GRID_RECORDED]].copy(), self.control.copy())
+            while len(self._grids) > KEPT_GRIDS:
+                del self._grids[next(iter(self._grids))]
+
+    def _attempts(self) -> int:
+        """Step attempts so far: accepted, rejected and redone to land on a contact event."""
+        return int(self.counters[ACCEPTED] + self.counters[REJECTED] + self.counters[EVENT_RETRIES])
 
     def _take_records(self, records: np.ndarray) -> None:
         """Keep the new lobe records (all of them with the history; in any case the last 2z - 1, which hold the

@@ -3,9 +3,10 @@ with RK4 start (docs/model.md §8.2).
 
 `advance` is entered once per advance and runs until the end time, a full output buffer or a failure. It owns
 what every method shares, written once: events (valley crossing, end of the speed ramp, the end time) clip the step
-to land on them; a step is rejected when its error is too large, when a contact opened deeper than
-max_onset_penetration, or when the state is invalid; after an accepted step the memory (warm start, impact
-velocities, mode, lobe) is updated, the output row recorded, the lobe window accumulated (mechanics.loop.windows) and,
+to land on them, and so do contact onsets and separations (a step that changes a contact is redone to end at the
+located change); a step is rejected when its error is too large or the state is invalid; after an accepted step
+the memory (warm start, impact velocities, mode, lobe) is updated, the output row recorded, the lobe window
+accumulated (mechanics.loop.windows) and,
 at a valley, the lobe record written and the chambers switched. A method is a set of kernels with one signature
 each (begin, bounded step, attempt, after rejection, after acceptance: the block "The methods" below):
 `dopri5_*` from the tableau below (as scipy's RungeKutta classes do), `abm4_*` as Adams-Bashforth predictor and
@@ -33,14 +34,24 @@ from .speed import ramp_end_time, rotor_motion, time_of_angle
 from .windows import accumulate, close_window
 
 # counters shared with Python
-ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS = range(6)
-COUNTER_SIZE = 6
+ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS, EVENT_RETRIES = range(7)
+COUNTER_SIZE = 7
 # control values kept between advances
 CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
 CONTROL_SIZE = 4
+# step-grid replay (docs/model.md §8.2): grid_counts holds the number of step end times to follow, the index of the
+# next one, the number recorded by this advance and whether the replay fell back to adaptive steps
+GRID_FOLLOW, GRID_NEXT, GRID_RECORDED, GRID_FELL_BACK = range(4)
+GRID_COUNTS_SIZE = 4
+# the columns of a recorded grid: each step's start, size, end and whether it was redone to land on a contact change
+GRID_START, GRID_STEP, GRID_END, GRID_REDONE = range(4)
+GRID_COLUMNS = 4
+REPLAY_ERROR_LIMIT = 10.0           # a replayed step whose scaled error exceeds this ends the replay
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
-NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT = range(4)
+NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT, CONTACT_EVENT = range(5)
+NO_SLOT = -1                        # no contact change to redo the step to (_contact_changes)
+ROOT_SAMPLES = 8                    # sign samples of the penetration's cubic before bisection (_penetration_root)
 TIME_RESOLUTION = 16.0 * np.finfo(np.float64).eps      # the smallest step relative to the time (smallest_step)
 
 # Dormand-Prince 5(4) (Hairer, Norsett, Wanner, Solving ODEs I, Table 5.2): nodes C, coefficients A (the last row
@@ -95,8 +106,9 @@ def _all_finite(values, count):
 
 
 @kernel
-def _clip_to_events(t, step, t_end, law, memory, m):
-    """Shorten the step to land on the next event inside it; return (step, event kind)."""
+def _clip_to_events(t, step, t_end, law, memory, m, contact_time):
+    """Shorten the step to land on the next event inside it (contact_time: a located contact onset or separation,
+    inf if none); return (step, event kind)."""
     event = NO_EVENT
     if t + step >= t_end:
         step = t_end - t
@@ -109,35 +121,110 @@ def _clip_to_events(t, step, t_end, law, memory, m):
     if rotor_motion(t + step, law)[0] >= next_valley:
         step = time_of_angle(next_valley, t, t + step, law) - t
         event = VALLEY_EVENT
+    if contact_time < t + step:
+        step = contact_time - t
+        event = CONTACT_EVENT
     return step, event
 
 
 @kernel
-def _opened_too_deep(out, memory, m):
-    """True if a contact that was open at the start of the step closed with delta > max_onset_penetration."""
+def _slot_gap(row, slot):
+    """(penetration, its rate) of a memory slot in an output row: the deepest of the regions sharing the slot (c5/c6
+    are one tip contact, docs/model.md §5.1); NaN if no region of the slot has a candidate."""
+    gap = math.nan
+    rate = math.nan
     for region in range(REGION_COUNT):
-        if out[O.penetration + region] > m.max_onset_penetration \
-                and memory[MEM_ONSET_VELOCITY + REGION_MEMORY_SLOT[region]] <= 0.0:
-            return True
-    return False
+        delta = row[O.penetration + region]
+        if REGION_MEMORY_SLOT[region] == slot and math.isfinite(delta) and not delta <= gap:
+            gap = delta
+            rate = row[O.penetration_rate + region]
+    return gap, rate
 
 
 @kernel
-def _update_memory(out, memory, m):
-    """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed."""
+def _penetration_root(start, start_rate, end, end_rate, step):
+    """The earliest s in (0, 1] where the cubic Hermite p(s) through (start, step start_rate) at s = 0 and (end,
+    step end_rate) at s = 1 changes sign from that of `start` (their signs differ): ROOT_SAMPLES sign samples, then
+    bisection to the resolution of s (docs/model.md §8.2, events)."""
+    closed = start > 0.0
+    low = 0.0
+    high = 1.0
+    for k in range(1, ROOT_SAMPLES + 1):
+        high = k / ROOT_SAMPLES
+        if (_hermite(high, start, start_rate, end, end_rate, step) > 0.0) != closed:
+            break
+        low = high
+    while high - low > 4.0 * np.finfo(np.float64).eps:
+        middle = 0.5 * (low + high)
+        if (_hermite(middle, start, start_rate, end, end_rate, step) > 0.0) != closed:
+            high = middle
+        else:
+            low = middle
+    return high
+
+
+@kernel
+def _hermite(s, start, start_rate, end, end_rate, step):
+    """The cubic Hermite interpolant at s in [0, 1] of values start, end and slopes start_rate, end_rate (per unit
+    time) over a step of length `step`."""
+    s2 = s * s
+    s3 = s2 * s
+    return ((2.0 * s3 - 3.0 * s2 + 1.0) * start + (s3 - 2.0 * s2 + s) * step * start_rate
+            + (-2.0 * s3 + 3.0 * s2) * end + (s3 - s2) * step * end_rate)
+
+
+@kernel
+def _contact_changes(start_row, end_row, memory, step, landed, resolution):
+    """(s, slot, at_end): the earliest contact onset or separation inside the step to redo the step to, as a fraction
+    s of it and its memory slot (inf, NO_SLOT if none), and the bit mask of the slots whose change is taken at the
+    step end (docs/model.md §8.2, events). A slot changes when its penetration's sign at the step end differs from
+    its memory (closed: a stored impact velocity) and from its sign at the step start; the time of delta = 0 is the
+    root of the cubic Hermite through delta and its rate at both ends. A root within `resolution` (a fraction of
+    the step) of either end is taken at the step end: no contact change makes a step shorter than h_min. The slots
+    in the mask `landed` (the step ended on their located change) are not tested again: their delta there is 0 up
+    to round-off, of either sign. A change whose start and end signs agree (a landing undone at once, or a slot
+    without a candidate at the start) is not located: it is taken at the step end by _update_memory."""
+    earliest = math.inf
+    earliest_slot = NO_SLOT
+    at_end = 0
+    for slot in range(MEMORY_SLOTS):
+        if landed & (1 << slot):
+            continue
+        end, end_rate = _slot_gap(end_row, slot)
+        touching = end > 0.0
+        if touching == (memory[MEM_ONSET_VELOCITY + slot] > 0.0):
+            continue
+        start, start_rate = _slot_gap(start_row, slot)
+        if (start > 0.0) == touching or not (math.isfinite(start_rate) and math.isfinite(end_rate)):
+            continue
+        s = _penetration_root(start, start_rate, end, end_rate, step)
+        if s <= resolution or s >= 1.0 - resolution:
+            at_end |= 1 << slot
+        elif s < earliest:
+            earliest = s
+            earliest_slot = slot
+    return earliest, earliest_slot, at_end
+
+
+@kernel
+def _update_memory(out, memory, m, landed):
+    """Update the memory after an accepted step (docs/model.md §5.1, §8.1); return True if the contact mode changed.
+    The slots in the bit mask `landed` (the step ended on their located change) open or close: at an onset
+    delta_dot^- = max(|delta_dot|, v_floor) at the event, at a separation it is cleared. Any other slot whose contact
+    changed without a located event (_contact_changes) is updated from the step end the same way."""
     memory[MEM_CLOSEST_OFFSET] = out[O.closest_parameter_offset]
     for slot in range(MEMORY_SLOTS):
-        touching = False
-        rate = 0.0
-        for region in range(REGION_COUNT):       # the regions sharing a slot touch one at a time (c5/c6)
-            if REGION_MEMORY_SLOT[region] == slot and out[O.penetration + region] > 0.0:
-                touching = True
-                rate = out[O.penetration_rate + region]
+        gap, rate = _slot_gap(out, slot)
         index = MEM_ONSET_VELOCITY + slot
+        closed = memory[index] > 0.0
+        if landed & (1 << slot):
+            touching = not closed
+        else:
+            touching = gap > 0.0
         if not touching:
             memory[index] = 0.0
-        elif memory[index] <= 0.0:
-            memory[index] = max(abs(rate), m.onset_velocity_floor)
+        elif not closed:
+            memory[index] = max(abs(rate), m.onset_velocity_floor) if math.isfinite(rate) else m.onset_velocity_floor
     memory[MEM_LAW_EXCESS] = max(memory[MEM_LAW_EXCESS], out[O.contact_law_excess])
     changed = out[O.contact_mode] != memory[MEM_MODE]
     memory[MEM_MODE] = out[O.contact_mode]
@@ -391,9 +478,47 @@ def smallest_step(t, m):
 
 
 @kernel
-def _step_rejected(err, failure, out, memory, m):
-    """A step is rejected when its error is too large, its state invalid, or a contact opened too deep."""
-    return err > 1.0 or failure != 0 or _opened_too_deep(out, memory, m)
+def _step_rejected(err, failure):
+    """A step is rejected when its error is too large or its state invalid."""
+    return err > 1.0 or failure != 0
+
+
+@kernel
+def _replay_step(t, grid, grid_counts):
+    """(True, the step to the next step end to follow) while a replayed grid lasts, else (False, 0): the recorded
+    step from its recorded start (so a replay at the recorded input repeats the recorded advance bit for bit), else
+    the step to the recorded end."""
+    index = grid_counts[GRID_NEXT]
+    if index < grid_counts[GRID_FOLLOW]:
+        if t == grid[index, GRID_START]:
+            return True, grid[index, GRID_STEP]
+        return True, grid[index, GRID_END] - t
+    return False, 0.0
+
+
+@kernel
+def _after_replayed_step(t, grid, grid_counts):
+    """Move past the followed steps that t has reached, and past a step redone for a contact change once t has
+    left its start (the step that landed on the change has been taken)."""
+    while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW]:
+        index = grid_counts[GRID_NEXT]
+        if not (grid[index, GRID_END] <= t or (grid[index, GRID_REDONE] != 0.0 and grid[index, GRID_START] < t)):
+            break
+        grid_counts[GRID_NEXT] += 1
+
+
+@kernel
+def _record_step(start, step, end, redone, recorded, grid_counts):
+    """Record a step the step control chose (not clipped by an event) that passed the error control: accepted, or
+    redone to land on a contact change; past the capacity the count grows beyond it, which marks the record
+    incomplete."""
+    count = grid_counts[GRID_RECORDED]
+    if count < recorded.shape[0]:
+        recorded[count, GRID_START] = start
+        recorded[count, GRID_STEP] = step
+        recorded[count, GRID_END] = end
+        recorded[count, GRID_REDONE] = 1.0 if redone else 0.0
+    grid_counts[GRID_RECORDED] = count + 1
 
 
 @kernel
@@ -407,7 +532,7 @@ def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
 
 @kernel
 def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, out, scratch, rows_out,
-            keep_rows, lobe_records, counters, max_attempts):
+            keep_rows, lobe_records, counters, max_attempts, grid, recorded, grid_counts):
     """Integrate from t to t_end with the machine's method (module docstring; the methods above). y, memory,
     control, history, window, run_dwell and counters are updated in place; work is the workspace (WORKSPACE_ROWS
     rows) and work_rows the same rows as a tuple of arrays (a function without reference counting cannot take
@@ -415,6 +540,13 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     only the last in rows_out[0]), lobe records to lobe_records. At most max_attempts steps are attempted
     (accepted or rejected): then the status is WORK_LIMIT, so that no state (a step size of 0 or 5e-324, a time
     that does not advance) can make the loop spin.
+    Step-grid replay (docs/model.md §8.2): while grid_counts[GRID_NEXT] < grid_counts[GRID_FOLLOW] the steps follow
+    the recorded steps grid[GRID_NEXT:GRID_FOLLOW] (events still clip them; the step after an event goes to the next
+    recorded end)
+    and are accepted without error control unless their scaled error exceeds REPLAY_ERROR_LIMIT: then the replay
+    ends (GRID_FELL_BACK) and the step control takes over. The end times of the steps the step control chose (not
+    clipped by an event) are recorded in `recorded` (start, size, end, redone; count in grid_counts[GRID_RECORDED]), with
+    the steps redone to land on a contact change: a replay at the recorded input repeats the advance bit for bit.
     Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number."""
     m = ctx.machine[0]
     method = m.integrator
@@ -427,20 +559,32 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     method_begin(method, control, history, work, n)
     rejected_last = False
     attempts = 0
+    contact_time = math.inf          # a located contact event ahead (docs/model.md §8.2, events)
+    contact_slot = NO_SLOT
     while t < t_end:
         if (keep_rows and rows >= rows_out.shape[0]) or records >= lobe_records.shape[0]:
             return RECORD_FULL, t, rows, records
         if attempts >= max_attempts:
             return WORK_LIMIT, t, rows, records
         attempts += 1
-        control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
-        step, event = _clip_to_events(t, control[CONTROL_STEP], t_end, ctx.law, memory, m)
+        replaying, proposed = _replay_step(t, grid, grid_counts)
+        if not replaying:
+            control[CONTROL_STEP] = method_bounded_step(method, control[CONTROL_STEP], m)
+            proposed = control[CONTROL_STEP]
+        step, event = _clip_to_events(t, proposed, t_end, ctx.law, memory, m, contact_time)
         failure, err = method_attempt(method, t, step, event, y, ctx, memory, control, history, work, work_rows, out,
                                       counters)
         finite = _all_finite(work_rows[W_Y_NEW], n) and _all_finite(work_rows[STAGES - 1], n)
         if not finite:
             err = math.inf
-        if _step_rejected(err, failure, out, memory, m):
+        if replaying:
+            if err <= REPLAY_ERROR_LIMIT and failure == 0:
+                err = min(err, 1.0)
+            else:
+                grid_counts[GRID_FOLLOW] = grid_counts[GRID_NEXT]      # the replay ends here
+                grid_counts[GRID_FELL_BACK] = 1
+                control[CONTROL_STEP] = step
+        if _step_rejected(err, failure):
             counters[REJECTED] += 1
             rejected_last = True
             control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
@@ -449,11 +593,33 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
                     return failure, t, rows, records
                 return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
             continue
+        landed = (1 << contact_slot) if event == CONTACT_EVENT else 0
+        s, slot, at_end = _contact_changes(scratch, out, memory, step, landed, smallest_step(t, m) / step)
+        if slot != NO_SLOT:
+            contact_time = t + s * step              # redo the step to end on the earliest contact change
+            contact_slot = slot
+            counters[EVENT_RETRIES] += 1
+            if event == NO_EVENT:
+                _record_step(t, step, t + step, True, recorded, grid_counts)
+            continue
+        landed |= at_end
+        contact_time = math.inf
+        contact_slot = NO_SLOT
         counters[ACCEPTED] += 1
-        t = t_end if event == END_EVENT else t + step
+        start = t
+        if event == END_EVENT:
+            t = t_end
+        elif replaying and event == NO_EVENT:
+            t = grid[grid_counts[GRID_NEXT], GRID_END]
+        else:
+            t = t + step
+        if event == NO_EVENT:
+            _record_step(start, step, t, False, recorded, grid_counts)
+        _after_replayed_step(t, grid, grid_counts)
         copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
         copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
-        mode_changed = _update_memory(out, memory, m)
+        copy_values(scratch, 0, out, 0, out.size)
+        mode_changed = _update_memory(out, memory, m, landed)
         counters[MODE_CHANGES] += mode_changed
         _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows)
         rows += 1
@@ -493,14 +659,14 @@ def context(machine, law, pressure_table, chambers, flow_work, table_scalars, ta
 
 @kernel(allocates=True)
 def run(t, t_end, y, memory, control, history, window, run_dwell, work, outs, rows_out, keep_rows, lobe_records,
-        counters, max_attempts, *context_arrays):
+        counters, max_attempts, grid, recorded, grid_counts, *context_arrays):
     """`advance` with its context (the arrays of `context`, in its order) and workspace given as arrays (the entry
     point mechanics.simulation calls): the named records and the tuple of workspace rows are built here, once per
     advance."""
     ctx = context(*context_arrays)
     work_rows = (work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10])
     return advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work, work_rows, outs[0], outs[1],
-                   rows_out, keep_rows, lobe_records, counters, max_attempts)
+                   rows_out, keep_rows, lobe_records, counters, max_attempts, grid, recorded, grid_counts)
 
 
 @kernel(allocates=True)

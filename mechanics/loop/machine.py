@@ -82,7 +82,6 @@ MACHINE_FIELDS = (
     ("atol_position", "[m]"), ("atol_angle", "[rad]"), ("atol_velocity", "[m/s]"),
     ("atol_angular_velocity", "[rad/s]"), ("atol_work", "[J]"), ("max_step", "[s]"),
     ("contact_period", "T_c of docs/model.md §8.3, the time scale of the smallest step [s]"),
-    ("max_onset_penetration", "[m]"),
     ("stator_lobe_integral", "int (1/2 r^2 + d N) du over a lobe (mechanics.geometry.chamber_geometry) [m2]"),
 )
 MACHINE_DTYPE = np.dtype([(name, np.float64) for name, _ in MACHINE_FIELDS])
@@ -117,7 +116,7 @@ def machine_array(p: CompressorParameters) -> np.ndarray:
         integrator=float(INTEGRATORS.code(p.integrator, "integrator")), relative_tolerance=p.relative_tolerance,
         atol_position=1e-9 * scale, atol_angle=1e-8 * scale, atol_velocity=1e-6 * scale,
         atol_angular_velocity=1e-4 * scale, atol_work=1e-6 * scale,
-        max_step=p.max_step, contact_period=math.nan, max_onset_penetration=p.max_onset_penetration,
+        max_step=p.max_step, contact_period=math.nan,
         stator_lobe_integral=math.nan)
     machine = np.zeros(1, dtype=MACHINE_DTYPE)
     for name, value in values.items():

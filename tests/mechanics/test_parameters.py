@@ -39,7 +39,7 @@ def test_defaults_match_spec_table():
                     tip_leak_coefficient=0.65, slot_leak_law="sealed", slot_leak_coefficient=0.65,
                     heat_capacity_ratio=1.10,
                     gas_constant=81.5, relative_tolerance=3e-5, initial_step=1e-6, max_step=2e-5,
-                    max_onset_penetration=1e-6, mode_dwell_time=10e-6, stiffness_model="hertz_point",
+                    mode_dwell_time=10e-6, stiffness_model="hertz_point",
                     friction_model="threlfall", pressure_model="real_gas", fluid="R134a")
     for name, value in expected.items():
         if isinstance(value, str):

@@ -1,0 +1,121 @@
+"""The one-step map of the compressor (issue 24 item 6): how `shaft_torque_mean` of one 1 ms step depends on the
+held shaft speed, from restored states, as an iterating co-simulation master sees it. Prints tables only; asserts
+nothing (tests/mechanics/test_step_map.py checks a cheap version).
+
+Run from anywhere:  python benchmarks/bench_step_map.py [--states N] [--speeds N] [--models real_gas ...]
+                    [--rtol R] [--fmu RotaryVaneCompressor.fmu]
+
+A run at c = 0.05 mm, 1500 rpm, rotor_inertia = 0 (the defaults otherwise) settles for 0.1 s; then from N
+consecutive states 1 ms apart (each saved with `get_state`), one 1 ms advance is made for each of the speeds
+1500 + linspace(-0.01, 0.01, N_speeds) rpm (restored before each), and shaft_torque_mean = (W_in after - W_in before)
+/ (angle turned) is read as the FMU computes it (fmu_src/compressor.py). The figure is the worst jump of
+shaft_torque_mean between neighbouring speeds, over all states: a smooth map changes by O(1e-4 rpm x slope) between
+neighbours, about 1e-7 N.m here.
+
+With --fmu the same measurement runs through fmpy's low-level API as a co-simulation master does it: 1 ms doSteps
+at 1500 rpm to 0.1 s, then from each state fmi2GetFMUstate, and per speed fmi2SetFMUstate, the shaft_speed input,
+one doStep and shaft_torque_mean (the FMU's defaults otherwise: interpolate_speed moves the speed over the step).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from rotary_vane.mechanics.loop.layout import WORK_IN
+from rotary_vane.mechanics.parameters import CompressorParameters
+from rotary_vane.mechanics.simulation import Simulation
+
+from report import heading, table  # benchmarks/ is the script's folder
+
+SPEED_RPM = 1500.0
+STEP = 1e-3
+SETTLE = 0.1
+
+
+def step_map(params: CompressorParameters, states: int, speeds: int, half_width_rpm: float = 0.01,
+             settle: float = SETTLE) -> np.ndarray:
+    """shaft_torque_mean [N.m] of one STEP advance, shape (states, speeds)."""
+    simulation = Simulation(params, keep_history=False)
+    simulation.advance(settle)
+    offsets = np.linspace(-half_width_rpm, half_width_rpm, speeds)
+    torques = np.empty((states, speeds))
+    for i in range(states):
+        saved = simulation.get_state()
+        for j, offset in enumerate(offsets):
+            simulation.set_state(saved)
+            work, angle = simulation.state[WORK_IN], simulation.rotor_angle
+            simulation.advance(saved.time + STEP, speed_rpm=SPEED_RPM + offset)
+            torques[i, j] = (simulation.state[WORK_IN] - work) / (simulation.rotor_angle - angle)
+        simulation.set_state(saved)
+        simulation.advance(saved.time + STEP, speed_rpm=SPEED_RPM)
+    return torques
+
+
+def fmu_step_map(fmu: str, model: str, rtol: float, states: int, speeds: int, half_width_rpm: float = 0.01,
+                 settle: float = SETTLE) -> np.ndarray:
+    """step_map through fmpy's FMU2Slave: shaft_torque_mean of one STEP doStep, shape (states, speeds)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    description = read_model_description(fmu)
+    refs = {v.name: v.valueReference for v in description.modelVariables}
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(fmu),
+                      modelIdentifier=description.coSimulation.modelIdentifier, instanceName="step_map")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.setReal([refs["stator_clearance"], refs["rotor_inertia"], refs["relative_tolerance"]], [0.05e-3, 0.0, rtol])
+    slave.setString([refs["pressure_model"]], [model])
+    slave.exitInitializationMode()
+    speed, torque = refs["shaft_speed"], refs["shaft_torque_mean"]
+    slave.setReal([speed], [SPEED_RPM])
+    t = 0.0
+    for _ in range(round(settle / STEP)):
+        slave.doStep(t, STEP)
+        t += STEP
+    torques = np.empty((states, speeds))
+    for i in range(states):
+        saved = slave.getFMUstate()
+        for j, offset in enumerate(np.linspace(-half_width_rpm, half_width_rpm, speeds)):
+            slave.setFMUstate(saved)
+            slave.setReal([speed], [SPEED_RPM + offset])
+            slave.doStep(t, STEP)
+            torques[i, j] = slave.getReal([torque])[0]
+        slave.setFMUstate(saved)
+        slave.setReal([speed], [SPEED_RPM])
+        slave.doStep(t, STEP)
+        slave.freeFMUstate(saved)
+        t += STEP
+    slave.terminate()
+    slave.freeInstance()
+    return torques
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--states", type=int, default=10)
+    parser.add_argument("--speeds", type=int, default=201)
+    parser.add_argument("--models", nargs="+", default=["ideal_gas_table", "real_gas"])
+    parser.add_argument("--rtol", type=float, nargs="+", default=[3e-5, 1e-8])
+    parser.add_argument("--fmu", help="measure through this RotaryVaneCompressor.fmu with fmpy instead")
+    args = parser.parse_args()
+    heading(f"One-step map{' through fmpy' if args.fmu else ''}: {args.states} states x {args.speeds} speeds in +-0.01 rpm, c = 0.05 mm, 1500 rpm, "
+            f"rotor_inertia = 0")
+    rows = []
+    for model in args.models:
+        for rtol in args.rtol:
+            params = CompressorParameters(stator_clearance=0.05e-3, rotor_inertia=0.0, pressure_model=model,
+                                          relative_tolerance=rtol)
+            start = time.perf_counter()
+            torques = (fmu_step_map(args.fmu, model, rtol, args.states, args.speeds) if args.fmu else
+                       step_map(params, args.states, args.speeds))
+            jumps = np.abs(np.diff(torques, axis=1))
+            rows.append([model, f"{rtol:g}", f"{jumps.max():.2e}", f"{np.median(jumps):.2e}",
+                         f"{(jumps > 1e-5).sum()}", f"{time.perf_counter() - start:.0f}"])
+            print(rows[-1], flush=True)
+    print(table(["pressure model", "rtol", "worst jump [N.m]", "median jump", "jumps > 1e-5", "wall [s]"], rows))
+
+
+if __name__ == "__main__":
+    main()

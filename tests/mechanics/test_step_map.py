@@ -1,0 +1,79 @@
+"""The one-step map an iterating co-simulation master sees (issue 24 item 6, docs/model.md §8.2 "Events" and
+"Step-grid replay"): from a restored state, one 1 ms advance at neighbouring held speeds must give a shaft torque
+that changes smoothly with the speed. benchmarks/bench_step_map.py measures the full version (201 speeds, both
+pressure models, two tolerances)."""
+import numpy as np
+import pytest
+
+from rotary_vane.mechanics import CompressorParameters, Simulation
+from rotary_vane.mechanics.loop.integrators import ACCEPTED
+from rotary_vane.mechanics.loop.layout import WORK_IN
+
+STEP = 1e-3
+SPEEDS = 1500.0 + np.linspace(-0.01, 0.01, 21)      # rpm, 1e-3 rpm apart
+
+
+def level_half_run():
+    params = CompressorParameters(stator_clearance=0.05e-3, rotor_inertia=0.0, pressure_model="ideal_gas_table")
+    simulation = Simulation(params, keep_history=False)
+    simulation.advance(0.05)
+    return simulation
+
+
+def torques_and_steps(simulation, saved, speeds):
+    """shaft_torque_mean (as the FMU computes it) and accepted steps of one STEP advance per speed from `saved`."""
+    torques, steps = [], []
+    for speed in speeds:
+        simulation.set_state(saved)
+        work, angle, accepted = simulation.state[WORK_IN], simulation.rotor_angle, simulation.counters[ACCEPTED]
+        simulation.advance(saved.time + STEP, speed_rpm=speed)
+        torques.append((simulation.state[WORK_IN] - work) / (simulation.rotor_angle - angle))
+        steps.append(simulation.counters[ACCEPTED] - accepted)
+    return np.array(torques), steps
+
+
+def test_the_torque_of_one_step_is_smooth_in_the_speed_from_restored_states():
+    """Three consecutive states, 21 speeds in +-0.01 rpm: the torque's change between neighbours departs from its
+    median (the map's slope, ~3e-6 N.m per 1e-3 rpm) by at most 1e-6 N.m, and every speed takes the same steps.
+    Before the located contact events and the grid replay the first state jumped by 1.2e-5 N.m (a step more or
+    less, and the impact velocity taken at whichever step first fell inside a contact)."""
+    simulation = level_half_run()
+    for _ in range(3):
+        saved = simulation.get_state()
+        torques, steps = torques_and_steps(simulation, saved, SPEEDS)
+        changes = np.diff(torques)
+        assert np.abs(changes - np.median(changes)).max() <= 1e-6, changes
+        assert len(set(steps)) == 1, steps
+        simulation.set_state(saved)
+        simulation.advance(saved.time + STEP, speed_rpm=1500.0)
+
+
+def test_a_replayed_step_with_the_same_input_repeats_the_step_exactly():
+    """The grid replay is invisible at the recorded input: state, memory and step control after the replay are
+    those after the adaptive advance that recorded it, bit for bit (each step repeats the recorded size from the
+    recorded start)."""
+    simulation = level_half_run()
+    saved = simulation.get_state()
+    simulation.advance(saved.time + STEP, speed_rpm=1500.0)
+    first = simulation.get_state()
+    simulation.set_state(saved)
+    simulation.advance(saved.time + STEP, speed_rpm=1500.0)
+    for name in ("state", "memory", "control"):
+        np.testing.assert_array_equal(getattr(simulation, name), getattr(first, name), err_msg=name)
+
+
+@pytest.mark.parametrize("speed", [1400.0, 0.0])
+def test_a_large_change_of_input_falls_back_to_the_step_control(speed):
+    """A replayed grid is followed only while its steps' error stays below 10x the tolerance: a speed changed by
+    100 rpm, or stopped, from the same state ends the replay and the step control takes over (counted in
+    replay_fallbacks), with the same result as an advance without any recorded grid."""
+    simulation = level_half_run()
+    saved = simulation.get_state()
+    fresh = Simulation(simulation.params, keep_history=False)
+    fresh.set_state(saved)
+    fresh.advance(saved.time + STEP, speed_rpm=speed)          # no grid recorded from this state: adaptive
+    simulation.advance(saved.time + STEP, speed_rpm=1500.0)    # records the grid
+    simulation.set_state(saved)
+    simulation.advance(saved.time + STEP, speed_rpm=speed)     # replays it, until the error is too large
+    assert simulation.replay_fallbacks == 1
+    assert simulation.state[WORK_IN] == pytest.approx(fresh.state[WORK_IN], rel=1e-4)
