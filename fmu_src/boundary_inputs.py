@@ -10,8 +10,9 @@ pressure (pressures equalised at standstill); tests/fmu/test_fmu_boundary_inputs
 CoolProp. Another fluid's own range is checked when a step takes the value.
 
 The model is built at initialization for the inputs' start values when they are a valid operating point
-(mechanics.parameters); a real-gas run on fluid-wide tables whose start values are not one (equal pressures, a wet
-suction state) is built at the parameters' defaults and takes the inputs as its boundary before the first step.
+(mechanics.parameters); a real-gas run whose start values are not one (equal pressures, a wet suction state) is
+built at the parameters' defaults and takes the inputs as its boundary before the first step (refused by name if
+its tables cannot hold them). At the start p_d >= p_s is required; a reversed difference is taken in a transient.
 
 Flow outputs (FLOW_RESULTS), from the chamber model's cumulative flows in the state (thermo.chamber_state), so
 that a host integrating the step means conserves mass and energy across the interface exactly: the drawn mass is
@@ -86,6 +87,11 @@ def build_point(values: dict) -> dict:
     parameters, else, for a real-gas run, the parameters' defaults (module docstring); the inputs' values for the
     pressure-table models, whose errors name them."""
     point = {name: values[name] for name in ("suction_pressure", "suction_temperature", "discharge_pressure")}
+    p_s, p_d = point["suction_pressure"], point["discharge_pressure"]
+    if isinstance(p_s, float) and isinstance(p_d, float) and p_d < p_s:
+        raise ValueError(f"input 'discharge_pressure' = {p_d!r} Pa at initialization is out of range: allowed >= "
+                         f"suction_pressure = {p_s!r} Pa (a reversed pressure difference is taken in a transient, "
+                         f"not at the start)")
     try:
         CompressorParameters(**values)
     except ValueError:
