@@ -23,8 +23,7 @@ from ...thermo.gas_reference import GasReference
 from ...thermo.flow_paths import FlowNode
 from ...thermo.leakage import LEAKAGE_LAWS
 from ...thermo.boundary_states import boundary_states, describe_boundary_status
-from ...thermo.fluid import Fluid
-from ...thermo.fluid_envelope import InputRange, fluid_tables_for, input_range
+from ...thermo.fluid_envelope import InputRange, fluid_range_for, fluid_tables_for
 from ...thermo.operating_point import operating_point_for
 from ...thermo.property_table import PropertyTable, property_table_for, table_arrays
 from ...thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
@@ -102,9 +101,8 @@ def _check_nozzle_inlet(name: str, value, state: FlowNode, table: NozzleTable, w
 def fluid_wide_range(p: CompressorParameters) -> InputRange | None:
     """The declared input range of the fluid-wide tables (thermo.fluid_envelope) if they serve this run: a fluid
     that has one, and the parameters' operating point inside it; else None (the run uses per-point tables)."""
-    try:
-        inputs = input_range(Fluid(p.fluid))
-    except ValueError:                                # no dome above 20 °C (air): per operating point
+    inputs = fluid_range_for(p.fluid).inputs
+    if inputs is None:                                # no dome above 20 °C (air): per operating point
         return None
     inside = (inputs.suction_pressure_min <= p.suction_pressure <= inputs.suction_pressure_max
               and p.discharge_pressure <= inputs.discharge_pressure_max
@@ -131,7 +129,7 @@ def _real_gas_coupling(p: CompressorParameters) -> GasCoupling:
     point = operating_point_for(p.fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
     inputs = fluid_wide_range(p)
     if inputs is not None:
-        table, nozzles = fluid_tables_for(point.coolprop_name)
+        table, nozzles = fluid_tables_for(p.fluid)
     else:
         table, nozzles = property_table_for(point, point.envelope), nozzle_table_for(point, point.envelope)
     properties = table_arrays(table)
