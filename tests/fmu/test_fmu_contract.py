@@ -190,8 +190,27 @@ for speed in (-5.0, math.nan, 1e9):
     record("C10", f"doStep with shaft_speed = {speed!r}", step(f, t, 1e-3))
     record("unchanged", f"after shaft_speed = {speed!r}", blob(f) == before)
 set_real(f, vr, "shaft_speed", 1500.0)
+# C10: the boundary inputs: not a number > 0, outside the tables' range, a state the tables cannot hold
+for name, value, good in (("suction_pressure", -1e5, 292800.0), ("discharge_pressure", math.nan, 1317900.0),
+                          ("discharge_pressure", 3e7, 1317900.0), ("suction_pressure", math.inf, 292800.0),
+                          ("suction_temperature", 240.0, 283.15)):
+    set_real(f, vr, name, value)
+    before = blob(f)
+    record("C10", f"doStep with {name} = {value!r}", step(f, t, 1e-3))
+    record("unchanged", f"after {name} = {value!r}", blob(f) == before)
+    set_real(f, vr, name, good)
 record("C15", "doStep after the discarded steps, fixed input", step(f, t, 1e-3))
 t += 1e-3
+
+# C27: a pressure-table model takes no other boundary than the one it was built for
+table_host = H.Host($fmu)
+assert table_host.initialize(**H.OPERATING_POINT, pressure_model="polytropic") == H.OK
+table_host.set(discharge_pressure=1.4e6)
+record("C27", "doStep of pressure_model polytropic with a changed discharge_pressure", table_host.step(0.0, 1e-3))
+table_host.set(discharge_pressure=1317900.0)
+record("C15", "doStep of pressure_model polytropic after the input is back", table_host.step(0.0, 1e-3))
+out["table messages"] = [m for _, _, m in table_host.messages()]
+table_host.close()
 
 # C3 after fmi2Terminate
 record("C15", "terminate", status(f.terminate))
@@ -436,7 +455,7 @@ def test_contract_row(row, misuse, bad_parameters, integration_failure, no_gas, 
 
 
 def test_the_readme_table_has_the_rows_this_file_runs():
-    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 27)]
+    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 28)]
 
 
 def test_crafted_states_the_work_bound_and_the_stop_time_say_why(safe_glue):
@@ -489,6 +508,13 @@ def test_messages_name_the_state_and_the_cause(misuse):
     assert "communication step size = nan s is invalid: allowed a finite value > 0" in messages
     assert "does not continue the model time: allowed t = 0.001 s" in messages
     assert "input 'shaft_speed' = -5.0 rpm is invalid: allowed [0, 30000] rpm" in messages
+    assert "input 'suction_pressure' = -100000.0 Pa is out of range: allowed a finite number > 0" in messages
+    assert "input 'discharge_pressure' = 30000000.0 Pa is out of range: allowed (0, 2.11683e+06] Pa" in messages
+    assert "input 'suction_temperature' = 240.0 K is out of range: allowed a state inside the R134a property " \
+           "table" in messages
+    assert any("input 'discharge_pressure' = 1400000.0 Pa is out of range: allowed 1317900.0 (the parameter's "
+               "value): the pressure table of pressure_model 'polytropic' is built for one operating point" in m
+               for m in misuse["table messages"]), misuse["table messages"]
     assert "no RVFMUSTATE header" in messages and "checksum mismatch" in messages and "version 7" in messages
     assert "another model or build" in messages and "content is not a state of this build" in messages
     in_error = [m for m in misuse["error state messages"] if "not allowed in the error state" in m]
