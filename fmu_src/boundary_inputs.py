@@ -64,8 +64,8 @@ FLOW_RESULTS = {
     "delivered_enthalpy": ("J", "cumulative net enthalpy delivered to the discharge side since the start", None),
     "suction_mass_flow_mean": ("kg/s", "drawn mass over the last step / step size", "drawn_mass"),
     "discharge_mass_flow_mean": ("kg/s", "delivered mass over the last step / step size", "delivered_mass"),
-    "discharge_enthalpy_mean": ("J/kg", "delivered enthalpy over the last step / delivered mass over it (NaN, "
-                                        "with fmi2Warning, if no mass was delivered)", None),
+    "discharge_enthalpy_mean": ("J/kg", "delivered enthalpy over the last step / delivered mass over it (NaN if "
+                                        "no mass was delivered, with fmi2Warning when read)", None),
 }
 
 
