@@ -396,15 +396,16 @@ class Simulation:
         p = self.params
         leading = self.last_output[OUTPUT_INDEX["leading_pressure"]]
         trailing = self.last_output[OUTPUT_INDEX["trailing_pressure"]]
+        suction_pressure, discharge_pressure = self.boundary.suction.pressure, self.boundary.back.pressure
         rpm = self.rotor_speed * 30.0 / math.pi
         text = (f"; at the last accepted step (t = {self.time:.6g} s, {rpm:.6g} rpm) p_L = {leading:.4g} Pa "
-                f"({leading / p.discharge_pressure:.3g} x discharge_pressure) and p_T = {trailing:.4g} Pa "
-                f"({trailing / p.suction_pressure:.3g} x suction_pressure)")
-        if leading > 1.5 * p.discharge_pressure:
+                f"({leading / discharge_pressure:.3g} x discharge_pressure) and p_T = {trailing:.4g} Pa "
+                f"({trailing / suction_pressure:.3g} x suction_pressure)")
+        if leading > 1.5 * discharge_pressure:
             text += (f": the discharge port (discharge_port_area = {p.discharge_port_area:g} m2, "
                      f"discharge_port_coefficient = {p.discharge_port_coefficient:g}) cannot pass the displaced gas "
                      f"at this speed; lower the speed or enlarge the port (docs/model.md §7.4)")
-        elif trailing < 0.5 * p.suction_pressure:
+        elif trailing < 0.5 * suction_pressure:
             text += (f": the suction port (suction_port_area = {p.suction_port_area:g} m2) starves the chamber at "
                      f"this speed; lower the speed or enlarge the port (docs/model.md §7.4)")
         return text
