@@ -267,6 +267,11 @@ class CompressorSlave(GuardedSlave):
     def _advance_map(self, end_time, step_size):
         """One step of the periodic_map fidelity (fmu_src.periodic_map_mode), to the model time `end_time`."""
         run = self.map_run
+        for name, value in self._boundary().items():        # the map is tabulated at one operating point
+            if value != self.built_with.get(name):
+                raise StepFailed(f"input '{name}' = {value!r} is out of range: allowed "
+                                 f"{self.built_with.get(name)!r}, the value the periodic map was tabulated at "
+                                 f"(fidelity 'periodic_map' is built for one operating point)")
         work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
         run.time = end_time                    # the exact sum of the step sizes (the clock's), not a float sum
         self.map_values = run.outputs()
