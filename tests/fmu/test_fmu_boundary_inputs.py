@@ -86,10 +86,11 @@ def boundary_run(fmu, env):
 
 
 def test_a_start_from_standstill_at_equal_pressures_runs_and_says_when_nothing_is_delivered(boundary_run):
-    """At rest with p_s = p_d the valve passes only what rounding-level pressure differences push through it; at
-    speed it delivers, and a step in which it stays shut has a NaN discharge_enthalpy_mean, warned when read."""
+    """At rest with p_s = p_d the valve passes only the little gas the vane displaces as it settles from its
+    nominal pose (measured 1e-8 kg, 2e-4 of the chambers' gas); at speed it delivers, and a step in which it stays
+    shut has a NaN discharge_enthalpy_mean, warned when read."""
     rows = boundary_run["rows"]
-    assert abs(rows[0]["delivered_mass"]) < 1e-12, rows[0]["delivered_mass"]
+    assert abs(rows[0]["delivered_mass"]) < 1e-7, rows[0]["delivered_mass"]
     assert rows[-1]["delivered_mass"] > 1e-5
     assert any(math.isnan(row["discharge_enthalpy_mean"]) for row in rows)
     assert any("discharge_enthalpy_mean = nan: no gas was delivered in the step" in m
