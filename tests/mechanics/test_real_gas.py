@@ -80,10 +80,10 @@ def test_per_revolution_figures_against_coolprop(nominal):
 
 
 def test_a_refused_chamber_state_stops_the_run_with_its_exact_vapour_quality():
-    """On per-point tables (a suction state hotter than R134a's declared input range, 323.15 K) a chamber pushed
+    """On per-point tables (a discharge pressure above R134a's declared input range, 2.12 MPa) a chamber pushed
     into the dome stops the run; the message names the chamber and its vapour quality, which comes from CoolProp
     (made only then: the run itself needs no CoolProp once its data are cached)."""
-    sim = run(revs=0.025, suction_temperature=330.0)
+    sim = run(revs=0.025, discharge_pressure=2.5e6)
     assert sim.gas.input_range is None
     sim.state[GAS_BLOCK + LEADING_TEMPERATURE] = 260.0           # R134a at 260 K and the chamber's density: wet
     density = sim.state[GAS_BLOCK + LEADING_MASS] / sim.last_output[OUTPUT_INDEX["leading_volume"]]
