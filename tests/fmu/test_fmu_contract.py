@@ -192,6 +192,19 @@ for speed in (-5.0, math.nan, 1e9):
 set_real(f, vr, "shaft_speed", 1500.0)
 record("C15", "doStep after the discarded steps, fixed input", step(f, t, 1e-3))
 t += 1e-3
+# C3 after fmi2Terminate
+record("C15", "terminate", status(f.terminate))
+record("C3", "doStep after terminate", step(f, t, 1e-3))
+record("C9", "fmi2Reset after terminate", status(f.reset))
+record("C15", "initialize after reset", host.initialize(**H.OPERATING_POINT))
+record("C15", "doStep after reset", step(f, 0.0, 1e-3))
+f.terminate()
+record("C3", "setReal after terminate", set_real(f, vr, "shaft_speed", 1000.0))
+record("messages", "all", 0)
+out["messages"] = [m for _, _, m in host.messages()]
+out["error state messages"] = error_messages
+f.freeInstance()
+
 # C10: the boundary inputs of the real-gas model: not a number > 0, outside the tables' range, a state the tables
 # cannot hold
 gas_host = H.Host($fmu)
@@ -219,19 +232,6 @@ table_host.set(discharge_pressure=1317900.0)
 record("C15", "doStep of pressure_model polytropic after the input is back", table_host.step(0.0, 1e-3))
 out["table messages"] = [m for _, _, m in table_host.messages()]
 table_host.close()
-
-# C3 after fmi2Terminate
-record("C15", "terminate", status(f.terminate))
-record("C3", "doStep after terminate", step(f, t, 1e-3))
-record("C9", "fmi2Reset after terminate", status(f.reset))
-record("C15", "initialize after reset", host.initialize(**H.OPERATING_POINT))
-record("C15", "doStep after reset", step(f, 0.0, 1e-3))
-f.terminate()
-record("C3", "setReal after terminate", set_real(f, vr, "shaft_speed", 1000.0))
-record("messages", "all", 0)
-out["messages"] = [m for _, _, m in host.messages()]
-out["error state messages"] = error_messages
-f.freeInstance()
 H.emit(out)
 """
 
