@@ -37,9 +37,9 @@ x_lim is tabulated on a T grid 8 times finer than the table's, each cell holding
 values (x_lim increases with T), so an accepted state is never closer to the dome than the margin; the price is
 that states up to about one dome cell (the T range / 1272, 0.17 K for R134a) beyond the margin may be refused too.
 
-Two-phase dome (docs/model.md §7.3.1; off by default): a table with `two_phase` set (`with_two_phase`,
-`property_table_for(..., two_phase=True)`) takes a state beyond the dew line, rho > rho_v(T) with T on the
-accepted part of its saturation line (thermo.saturation, built with every table), as a homogeneous equilibrium
+Two-phase dome (docs/model.md §7.3.1; off by default, on in the fluid-wide tables a real-gas run uses): a table
+with `two_phase` set (`with_two_phase`, `property_table_for(..., two_phase=True)`) takes a state beyond the dew
+line, rho > rho_v(T) with T on the accepted part of its saturation line (thermo.saturation, built with every table), as a homogeneous equilibrium
 mixture: p = p_sat(T), h = h_l + x (h_v - h_l), the mixture's c_v at constant volume, (dp/dT)_rho = dp_sat/dT and
 (dp/drho)_T = 0, with p_sat and h_v taken from the gas branch at the dew point (T, rho_v(T)) so that p and h are
 continuous across the dew line while their derivatives jump (the kink is not interpolated over: the gas table
