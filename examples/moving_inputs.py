@@ -76,10 +76,9 @@ def run(fmu: Path, stop_time: float, step: float, start_values: dict, signals, l
 def conservation(result, step: float) -> dict:
     """Relative differences between the sums of the step means x step and the cumulative outputs at the end."""
     delivered = np.diff(result["delivered_mass"], prepend=0.0)
-    enthalpy_mean = np.where(np.isfinite(result["discharge_enthalpy_mean"]), result["discharge_enthalpy_mean"], 0.0)
     sums = {"drawn_mass": np.sum(result["suction_mass_flow_mean"][1:]) * step,
             "delivered_mass": np.sum(result["discharge_mass_flow_mean"][1:]) * step,
-            "delivered_enthalpy": np.sum((enthalpy_mean * delivered)[1:])}
+            "delivered_enthalpy": np.sum((result["discharge_enthalpy_mean"] * delivered)[1:])}
     return {name: float(abs(total / result[name][-1] - 1.0)) for name, total in sums.items()}
 
 

@@ -18,11 +18,13 @@ Flow outputs (FLOW_RESULTS), from the chamber model's cumulative flows in the st
 that a host integrating the step means conserves mass and energy across the interface exactly: the drawn mass is
 the net mass from the suction side (ports, valley leaks, chambers filled from or vented to the idle lobes), the
 delivered mass and enthalpy the net flow to the discharge side (discharge valve minus what returns to the
-chambers from the back chamber, which holds discharge-side gas, through the slot side faces).
+chambers from the back chamber, which holds discharge-side gas, through the slot side faces). In a step that
+delivered nothing (the valve is shut for part of every lobe, so at 1 ms steps that is common) the mean discharge
+enthalpy is the discharge plenum's (the back node's): finite, so that a host multiplying it by the step's mass gets
+0 and not NaN, and fmi2OK (a NaN would come with fmi2Warning from every read in normal operation).
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
@@ -64,8 +66,9 @@ FLOW_RESULTS = {
     "delivered_enthalpy": ("J", "cumulative net enthalpy delivered to the discharge side since the start", None),
     "suction_mass_flow_mean": ("kg/s", "drawn mass over the last step / step size", "drawn_mass"),
     "discharge_mass_flow_mean": ("kg/s", "delivered mass over the last step / step size", "delivered_mass"),
-    "discharge_enthalpy_mean": ("J/kg", "delivered enthalpy over the last step / delivered mass over it (NaN if "
-                                        "no mass was delivered, with fmi2Warning when read)", None),
+    "discharge_enthalpy_mean": ("J/kg", "delivered enthalpy over the last step / delivered mass over it; the "
+                                        "discharge plenum's enthalpy (p_d on the suction isentrope) in a step "
+                                        "that delivered nothing", None),
 }
 
 
@@ -117,7 +120,9 @@ def flow_results(simulation, before: dict | None, step_size: float) -> dict:
     enthalpy = cumulative["delivered_enthalpy"] - before["delivered_enthalpy"]
     means = {name: (cumulative[source] - before[source]) / step_size
              for name, (_, _, source) in FLOW_RESULTS.items() if source is not None}
-    means["discharge_enthalpy_mean"] = enthalpy / delivered if delivered > 0.0 else math.nan
     if simulation.params.pressure_model != "real_gas":
         means["discharge_enthalpy_mean"] = 0.0
+    else:
+        means["discharge_enthalpy_mean"] = (enthalpy / delivered if delivered != 0.0 else
+                                            simulation.boundary.back.enthalpy)
     return {**cumulative, **means}

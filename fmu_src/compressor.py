@@ -65,8 +65,7 @@ MODEL_SCHEMA = schema.Record({
     "parameters": PARAMETER_TYPES,
     "shaft_speed": schema.Real(finite=False),     # an input may hold any value; a bad one discards the next step
     "boundary_inputs": schema.Record({name: schema.Real(finite=False) for name in BOUNDARY_INPUTS}),
-    "step_results": schema.Record({name: schema.Real(finite=name != "discharge_enthalpy_mean")
-                                   for name in STEP_RESULTS}),
+    "step_results": schema.Record({name: schema.Real() for name in STEP_RESULTS}),
     "map_values": schema.Mapping(tuple(d.name for d in OUTPUTS), schema.Real(finite=False)),
     "warned_revolution": schema.Nullable(schema.Real()),
     "simulation": schema.Nullable(compressor_state.SIMULATION),
@@ -163,9 +162,6 @@ class CompressorSlave(GuardedSlave):
         return float(getattr(summary, declared.source))
 
     def undefined_reason(self, name):
-        if name == "discharge_enthalpy_mean" and self.simulation is not None:
-            return (f"no gas was delivered in the step to t = {self.simulation.time + self.start_time:.9g} s (the "
-                    f"valve was shut: discharge_pressure = {self.discharge_pressure:g} Pa not reached)")
         summary = self.simulation.last_revolution if self.simulation is not None else None
         if summary is not None and name in REAL_GAS_FIGURES:
             return (f"the revolution ending at t = {summary.end_time + self.start_time:.9g} s delivered no gas to "

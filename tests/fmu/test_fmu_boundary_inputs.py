@@ -59,11 +59,11 @@ h, t, rows = 1e-3, 0.0, []
 for k in range(120):
     host.set(shaft_speed=min(1500.0, 1500.0 * t / 0.03), discharge_pressure=0.6e6 + 0.4e6 * min(1.0, t / 0.1))
     status = host.step(t, h)
-    assert status in (H.OK, H.WARNING), (t, status, host.messages()[-3:])
+    assert status == H.OK, (t, status, host.messages()[-3:])
     t += h
     rows.append(host.outputs())
 out["rows"] = rows
-out["warnings"] = [m for s, _, m in host.messages() if s == H.WARNING and "discharge_enthalpy_mean" in m][:3]
+out["warnings"] = [m for s, _, m in host.messages() if s == H.WARNING][:3]
 host.close()
 # a wet suction state (quality 0.95 at 0.2928 MPa) by enthalpy, one revolution at 1500 rpm
 wet = H.Host($fmu)
@@ -87,14 +87,14 @@ def boundary_run(fmu, env):
 
 def test_a_start_from_standstill_at_equal_pressures_runs_and_says_when_nothing_is_delivered(boundary_run):
     """At rest with p_s = p_d the valve passes only the little gas the vane displaces as it settles from its
-    nominal pose (measured 1e-8 kg, 2e-4 of the chambers' gas); at speed it delivers, and a step in which it stays
-    shut has a NaN discharge_enthalpy_mean, warned when read."""
+    nominal pose (measured 1e-8 kg, 2e-4 of the chambers' gas); at speed it delivers; a step in which it stays
+    shut reports the discharge plenum's enthalpy as its mean discharge enthalpy (finite, with fmi2OK)."""
     rows = boundary_run["rows"]
     assert abs(rows[0]["delivered_mass"]) < 1e-7, rows[0]["delivered_mass"]
     assert rows[-1]["delivered_mass"] > 1e-5
-    assert any(math.isnan(row["discharge_enthalpy_mean"]) for row in rows)
-    assert any("discharge_enthalpy_mean = nan: no gas was delivered in the step" in m
-               for m in boundary_run["warnings"]), boundary_run["warnings"]
+    shut = [row for before, row in zip(rows, rows[1:]) if row["delivered_mass"] == before["delivered_mass"]]
+    assert shut and all(math.isfinite(row["discharge_enthalpy_mean"]) for row in rows)
+    assert boundary_run["warnings"] == []
 
 
 def test_step_means_sum_to_the_cumulative_flows(boundary_run, check):
@@ -103,8 +103,7 @@ def test_step_means_sum_to_the_cumulative_flows(boundary_run, check):
     delivered = [b["delivered_mass"] - a["delivered_mass"] for a, b in zip([dict(delivered_mass=0.0)] + rows, rows)]
     sums = {"drawn_mass": sum(r["suction_mass_flow_mean"] for r in rows) * h,
             "delivered_mass": sum(r["discharge_mass_flow_mean"] for r in rows) * h,
-            "delivered_enthalpy": sum(r["discharge_enthalpy_mean"] * m for r, m in zip(rows, delivered)
-                                      if math.isfinite(r["discharge_enthalpy_mean"]))}
+            "delivered_enthalpy": sum(r["discharge_enthalpy_mean"] * m for r, m in zip(rows, delivered))}
     for name, total in sums.items():
         check(f"FMU flow outputs: sum of step means x h vs {name}", abs(total / last[name] - 1.0), CONSERVATION)
 

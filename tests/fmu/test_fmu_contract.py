@@ -303,8 +303,6 @@ for name in ("discharge_temperature", "discharge_mass_flow"):
     code, values = get_reals(f, vr, [name])
     out[name] = [code, values[0]]
 record("C13", "getReal of discharge_temperature", out["discharge_temperature"][0])
-record("C13", "getReal of discharge_enthalpy_mean of a step that delivered nothing",
-       get_reals(f, vr, ["discharge_enthalpy_mean"])[0])
 out["messages"] = [m for s, _, m in host.messages() if s == H.WARNING][:3]
 host.close()
 H.emit(out)
