@@ -125,7 +125,7 @@ class CompressorSlave(GuardedSlave):
         owner = self.owner
         for declared in OUTPUTS:
             getter = (_figure_getter(owner, declared) if declared.per == REVOLUTION
-                      else _column_getter(owner, declared.name, OUTPUT_INDEX[declared.source]))
+                      else _column_getter(owner, declared, OUTPUT_INDEX[declared.source]))
             self.register_variable(output(declared.name, declared.unit, declared.description, getter))
         for name, (unit, text) in STEP_RESULTS.items():
             self.register_variable(output(name, unit, text, lambda name=name: owner.step_results[name]))
@@ -364,12 +364,15 @@ def _check_built_model(tree) -> None:
         compressor_state.check_rows(model["simulation"], parameters["pressure_model"])
 
 
-def _column_getter(owner, name, column):
-    """The end-of-step value of an output column (the instance is held weakly: no reference cycle)."""
+def _column_getter(owner, declared, column):
+    """The end-of-step value of an output column (the instance is held weakly: no reference cycle); 0, as for a
+    figure, where the pressure model does not define it (the chamber qualities under the pressure tables)."""
     def value():
         if owner.map_run is not None:
-            return owner.map_values.get(name, 0.0)
-        return float(owner.simulation.last_output[column]) if owner.simulation is not None else 0.0
+            return owner.map_values.get(declared.name, 0.0)
+        if owner.simulation is None or owner.pressure_model not in declared.models:
+            return 0.0
+        return float(owner.simulation.last_output[column])
     return value
 
 
