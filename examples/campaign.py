@@ -1,7 +1,7 @@
 """Parameter campaigns through the compressor FMU on dask: a grid or a list of parameter sets, one FMU run per point.
 
-A campaign is a list of points; a point names FMU parameters (by their FMU variable names, SI units), the input
-`shaft_speed` [rpm], and the run settings `stop_time` [s] and `communication_step` [s]; what a point leaves out
+A campaign is a list of points; a point names FMU parameters (by their FMU variable names, SI units), inputs held
+at a value over the run (`shaft_speed` [rpm], the suction and discharge conditions), and the run settings `stop_time` [s] and `communication_step` [s]; what a point leaves out
 takes the FMU's start value (the run settings: the FMU's default experiment). Every name, type and declared range
 is checked against the FMU's modelDescription before anything runs (an unknown name is refused with the closest
 names). Checks that involve several parameters belong to the FMU: such a point runs, the FMU refuses it at
@@ -179,7 +179,7 @@ class ParameterSpace:
         self.guid = description.guid
         self.settings: dict[str, Setting] = {}
         for variable in description.modelVariables:
-            if variable.causality == "parameter" or variable.name == SPEED_INPUT:
+            if variable.causality in ("parameter", "input"):       # inputs are held at the point's value
                 self.settings[variable.name] = Setting(
                     variable.name, variable.type, variable.unit or "", self._start(variable),
                     _number_or_none(variable.min), _number_or_none(variable.max),

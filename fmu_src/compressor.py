@@ -15,7 +15,7 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Initial, Fmi2Status, Fmi2Variabil
 from pythonfmu.variables import Boolean
 
 from ..mechanics import CompressorParameters, IntegrationError, Simulation, constant_speed, declarations
-from ..mechanics.parameters import is_numeric
+from ..mechanics.parameters import OPERATING_POINT, is_numeric
 from ..mechanics.simulation import WORK_PER_MS
 from ..mechanics.loop.layout import WORK_IN
 from ..mechanics.loop.machine import machine_from_parameters
@@ -27,6 +27,8 @@ from . import compressor_state
 from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
 from . import state_schema as schema
 from .slave import GuardedSlave, StepFailed
+from .boundary_inputs import (BOUNDARY_INPUTS, FLOW_RESULTS, SUCTION_STATE_INPUTS, boundary_input_variable,
+                              build_point, check_suction_state_input, flow_results)
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
 OUTPUTS = fmu_outputs()
@@ -47,18 +49,22 @@ STEP_RESULTS = {
                                  "the rotor stood still)"),
     "shaft_work": ("J", "cumulative shaft work since the start"),
     "shaft_angle": ("rad", "cumulative rotor angle turned since the start"),
+    **{name: (unit, text) for name, (unit, text, _) in FLOW_RESULTS.items()},
 }
-PARAMETER_NAMES = (*(name for name, _, _ in declarations()), *RUN_PARAMETERS, "interpolate_speed", "fidelity")
-# parameter values as an importer may have set them (ranges are checked at initialization and for a built model)
+PARAMETER_NAMES = (*(name for name, _, _ in declarations()), *RUN_PARAMETERS, "interpolate_speed", "fidelity",
+                   "suction_state_input")
+# parameter values as an importer may have set them (ranges are checked at initialization and for a built model);
+# the operating-point parameters are those the model was built with (the boundary inputs' values then)
 PARAMETER_TYPES = schema.Record({
     **{name: (schema.Text(length=10 ** 6) if not is_numeric(meta) else
               schema.Integer(-2 ** 63, 2 ** 63) if meta["integer"] else schema.Real(finite=False))
        for name, _, meta in declarations()},
     **{name: schema.Real(finite=False) for name in RUN_PARAMETERS}, "interpolate_speed": schema.Boolean(),
-    "fidelity": schema.Text()})
+    "fidelity": schema.Text(), "suction_state_input": schema.Text()})
 MODEL_SCHEMA = schema.Record({
     "parameters": PARAMETER_TYPES,
     "shaft_speed": schema.Real(finite=False),     # an input may hold any value; a bad one discards the next step
+    "boundary_inputs": schema.Record({name: schema.Real(finite=False) for name in BOUNDARY_INPUTS}),
     "step_results": schema.Record({name: schema.Real() for name in STEP_RESULTS}),
     "map_values": schema.Mapping(tuple(d.name for d in OUTPUTS), schema.Real(finite=False)),
     "warned_revolution": schema.Nullable(schema.Real()),
@@ -94,7 +100,16 @@ class CompressorSlave(GuardedSlave):
             minimum=0.0, maximum=MAX_SHAFT_SPEED, description="rotor speed; held or ramped over each communication step"))
         for name, default, meta in declarations():
             setattr(self, name, default)
-            self.register_variable(declared_parameter(name, meta))
+            if name not in BOUNDARY_INPUTS:
+                self.register_variable(declared_parameter(name, meta))
+        for name in BOUNDARY_INPUTS:
+            setattr(self, name, BOUNDARY_INPUTS[name].start)
+            self.register_variable(boundary_input_variable(name))
+        self.suction_state_input = SUCTION_STATE_INPUTS[0]
+        self.register_variable(declared_parameter("suction_state_input", dict(
+            choices=SUCTION_STATE_INPUTS, description="which input defines the suction state with suction_pressure: "
+                                                      "suction_temperature (a superheated gas) or suction_enthalpy "
+                                                      "(any state, wet ones too); the other one is ignored")))
         for name, (unit, default, low, high, text) in RUN_PARAMETERS.items():
             setattr(self, name, default)
             self.register_variable(parameter(name, unit, text, low, high))
@@ -110,7 +125,7 @@ class CompressorSlave(GuardedSlave):
         owner = self.owner
         for declared in OUTPUTS:
             getter = (_figure_getter(owner, declared) if declared.per == REVOLUTION
-                      else _column_getter(owner, declared.name, OUTPUT_INDEX[declared.source]))
+                      else _column_getter(owner, declared, OUTPUT_INDEX[declared.source]))
             self.register_variable(output(declared.name, declared.unit, declared.description, getter))
         for name, (unit, text) in STEP_RESULTS.items():
             self.register_variable(output(name, unit, text, lambda name=name: owner.step_results[name]))
@@ -155,7 +170,9 @@ class CompressorSlave(GuardedSlave):
 
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
-        params = CompressorParameters(**{name: getattr(self, name) for name, _, _ in declarations()})
+        check_suction_state_input(self.suction_state_input)
+        values = {name: getattr(self, name) for name, _, _ in declarations()}
+        params = CompressorParameters(**{**values, **build_point(values)})
         if not (math.isfinite(self.shaft_speed) and 0.0 <= self.shaft_speed <= MAX_SHAFT_SPEED):
             raise ValueError(f"input 'shaft_speed' = {self.shaft_speed!r} rpm at initialization is invalid: "
                              f"allowed [0, {MAX_SHAFT_SPEED:g}] rpm")
@@ -169,7 +186,14 @@ class CompressorSlave(GuardedSlave):
             self.report(f"the kernels compiled into this FMU are not used: {refusal}; numba loads them from, or "
                         f"compiles them into, {cache_root()} (about 30 s, once per machine)", Fmi2Status.ok)
         self._build(params, self.shaft_speed)
+        if self.simulation is not None:
+            self.simulation.set_boundary(**self._boundary())       # the inputs' values at the start time
         self._report_kernel_misses()
+
+    def _boundary(self) -> dict:
+        """The boundary inputs as Simulation.set_boundary takes them (the one suction_state_input names)."""
+        ignored = "suction_enthalpy" if self.suction_state_input == "temperature" else "suction_temperature"
+        return {name: getattr(self, name) for name in BOUNDARY_INPUTS if name != ignored}
 
     def _report_kernel_misses(self):
         """A message (fmi2OK, as the refusal of the shipped kernels: a matter of time, not of results; on stderr and,
@@ -185,7 +209,7 @@ class CompressorSlave(GuardedSlave):
         """The model of `params` at its start (the speed is the input at the start time)."""
         self.simulation = self.map_run = None
         self.warned_law_excess = False
-        self.built_with = self._parameter_values()
+        self.built_with = {**self._parameter_values(), **{name: getattr(params, name) for name in OPERATING_POINT}}
         if self.fidelity == "periodic_map":
             self.map_run = PeriodicMapRun(params, self.pressure_table_speed, speed_rpm, self.initial_rotor_angle)
             return
@@ -203,7 +227,12 @@ class CompressorSlave(GuardedSlave):
         if self.map_run is not None:
             return self._advance_map(end_time, step_size)
         simulation = self.simulation
+        try:
+            simulation.set_boundary(**self._boundary())
+        except ValueError as error:
+            raise StepFailed(str(error)) from None
         work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
+        flows_before = flow_results(simulation, None, step_size)
         last_before = simulation.last_revolution
         try:
             simulation.advance(end_time, speed_rpm=self.shaft_speed, interpolate=self.interpolate_speed)
@@ -211,6 +240,7 @@ class CompressorSlave(GuardedSlave):
             raise StepFailed(f"the simulation stopped: {error}") from None
         work, angle = simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before
         results = self.step_results
+        results.update(flow_results(simulation, flows_before, step_size))
         results["shaft_torque_mean"] = (float(work / angle) if angle > 0.0 else
                                         float(simulation.last_output[OUTPUT_INDEX["driving_torque"]]))
         results["shaft_work"] = float(simulation.state[WORK_IN])
@@ -233,6 +263,11 @@ class CompressorSlave(GuardedSlave):
     def _advance_map(self, end_time, step_size):
         """One step of the periodic_map fidelity (fmu_src.periodic_map_mode), to the model time `end_time`."""
         run = self.map_run
+        for name, value in self._boundary().items():        # the map is tabulated at one operating point
+            if value != self.built_with.get(name):
+                raise StepFailed(f"input '{name}' = {value!r} is out of range: allowed "
+                                 f"{self.built_with.get(name)!r}, the value the periodic map was tabulated at "
+                                 f"(fidelity 'periodic_map' is built for one operating point)")
         work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
         run.time = end_time                    # the exact sum of the step sizes (the clock's), not a float sum
         self.map_values = run.outputs()
@@ -258,7 +293,7 @@ class CompressorSlave(GuardedSlave):
     def changed_parameters(self):
         defaults = {**{name: default for name, default, _ in declarations()},
                     **{name: spec[1] for name, spec in RUN_PARAMETERS.items()}, "interpolate_speed": True,
-                    "fidelity": "detailed"}
+                    "fidelity": "detailed", "suction_state_input": SUCTION_STATE_INPUTS[0]}
         return {name: value for name, value in self._parameter_values().items() if value != defaults[name]}
 
     def _parameter_values(self):
@@ -267,7 +302,9 @@ class CompressorSlave(GuardedSlave):
     def snapshot(self):
         # after initialization the parameters are those the model was built with (fixed parameters cannot change)
         parameters = self.built_with if self.built_with is not None else self._parameter_values()
-        return dict(parameters=parameters, shaft_speed=self.shaft_speed, step_results=dict(self.step_results),
+        return dict(parameters=parameters, shaft_speed=self.shaft_speed,
+                    boundary_inputs={name: getattr(self, name) for name in BOUNDARY_INPUTS},
+                    step_results=dict(self.step_results),
                     map_values=dict(self.map_values), warned_revolution=self.warned_revolution,
                     simulation=compressor_state.simulation_state(self.simulation) if self.simulation else None,
                     map_run=self.map_run.get_state() if self.map_run else None)
@@ -280,6 +317,8 @@ class CompressorSlave(GuardedSlave):
         for name, value in parameters.items():
             setattr(self, name, value)
         self.shaft_speed = float(state["shaft_speed"])
+        for name, value in state["boundary_inputs"].items():
+            setattr(self, name, float(value))
         self.step_results = {name: float(state["step_results"][name]) for name in STEP_RESULTS}
         self.map_values = {name: float(value) for name, value in state["map_values"].items()}
         self.warned_revolution = state["warned_revolution"]
@@ -314,6 +353,7 @@ def _check_built_model(tree) -> None:
         if not (math.isfinite(parameters[name]) and low <= parameters[name] <= high):
             raise ValueError(f"parameter '{name}' = {parameters[name]!r} is out of range: allowed [{low:g}, {high:g}]")
     check_fidelity(parameters["fidelity"])
+    check_suction_state_input(parameters["suction_state_input"])
     if (model["map_run"] is not None) != (parameters["fidelity"] == "periodic_map") or \
             (model["map_run"] is None and model["map_values"]):
         kind = "periodic-map" if model["map_run"] else "detailed"
@@ -324,12 +364,15 @@ def _check_built_model(tree) -> None:
         compressor_state.check_rows(model["simulation"], parameters["pressure_model"])
 
 
-def _column_getter(owner, name, column):
-    """The end-of-step value of an output column (the instance is held weakly: no reference cycle)."""
+def _column_getter(owner, declared, column):
+    """The end-of-step value of an output column (the instance is held weakly: no reference cycle); 0, as for a
+    figure, where the pressure model does not define it (the chamber qualities under the pressure tables)."""
     def value():
         if owner.map_run is not None:
-            return owner.map_values.get(name, 0.0)
-        return float(owner.simulation.last_output[column]) if owner.simulation is not None else 0.0
+            return owner.map_values.get(declared.name, 0.0)
+        if owner.simulation is None or owner.pressure_model not in declared.models:
+            return 0.0
+        return float(owner.simulation.last_output[column])
     return value
 
 

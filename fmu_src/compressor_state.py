@@ -75,6 +75,8 @@ SIMULATION = schema.Record({
     # the last 2z - 1 lobe records at most (Simulation._take_records); a revolution without gas delivered has
     # undefined (NaN) figures in its records, so these are not checked for finiteness
     "recent_records": schema.Array("<f8", lambda tree: ((None, 2 * _lobes(tree) - 1), RECORD_SIZE), finite=False),
+    # the boundary nodes held (mechanics.gas.boundary): T, rho, p, h of the suction node, then of the back node
+    "boundary_nodes": _float_array(8),
 })
 MAP_RUN = schema.Record({name: schema.Real() for name in ("time", "angle", "speed_rpm", "work", "acceleration")})
 

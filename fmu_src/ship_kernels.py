@@ -48,7 +48,10 @@ def run_fmu(pressure_model: str, integrator: str) -> None:
     slave.setup_experiment(0.0)
     slave.enter_initialization_mode()
     slave.exit_initialization_mode()
-    stepped = slave.phase == INITIALIZED and all(slave.do_step(k * STEP_SIZE, STEP_SIZE) for k in range(STEPS))
+    stepped = slave.phase == INITIALIZED and all(slave.do_step(k * STEP_SIZE, STEP_SIZE) for k in range(STEPS // 2))
+    if pressure_model == "real_gas":            # a moved boundary (its figures' references: mechanics.gas.boundary)
+        slave.discharge_pressure *= 1.01
+    stepped = stepped and all(slave.do_step(k * STEP_SIZE, STEP_SIZE) for k in range(STEPS // 2, STEPS))
     slave.get_real([reference for reference, variable in slave.vars.items() if isinstance(variable, Real)])
     slave.get_integer([reference for reference, variable in slave.vars.items() if isinstance(variable, Integer)])
     refusals = [entry.msg for entry in slave.log_queue if entry.status not in (Fmi2Status.ok, Fmi2Status.warning)]

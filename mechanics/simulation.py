@@ -16,12 +16,14 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
+from ..thermo.flow_paths import FlowNode
 from ..thermo.fluid import Fluid
 from ..thermo.property_table import describe_status, table_from_arrays, table_status
 from ..thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
 
 from .geometry.chamber_geometry import sector_table
 from .geometry.displacement import displacement
+from .gas.boundary import Boundary, boundary_of, hold_boundary, moved_reference, solve_boundary
 from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
 from .geometry.stator import law_arguments
@@ -89,6 +91,7 @@ class SimulationState:
     last_output: np.ndarray
     counters: np.ndarray
     recent_records: np.ndarray
+    boundary_nodes: np.ndarray        # the suction and back FlowNodes held (mechanics.gas.boundary), 8 values
 
 
 ARRAY_FIELDS = tuple(f.name for f in fields(SimulationState) if f.name != "time")
@@ -132,6 +135,7 @@ class Simulation:
             LOG.warning(notice)
         self.gas = gas_coupling(p, operating_speed)
         self.gas_reference = self.gas.reference
+        self._initial_boundary = self.boundary
         machine = machine_array(p)
         self.machine = record_of(machine)          # the constants by name (mechanics.loop.machine)
         sectors = sector_table(self.machine)
@@ -164,15 +168,19 @@ class Simulation:
         self._records: list[np.ndarray] = []
         self.recent_records = np.empty((0, RECORD_SIZE))
         self.last_revolution: WindowSummary | None = None
+        self._at_valley = abs(initial_angle - self.memory[MEM_LOBE_START]) <= 1e-12 * max(1.0, abs(initial_angle))
+        self._start_outputs()
+        self.contact_law_excess = 0.0
+
+    def _start_outputs(self) -> None:
+        """The initial output row and the first window, from the state at the start."""
         self.initial_output = np.empty(OUTPUT_SIZE)
         status = evaluate_state(self.time, self.state, self.memory, self.initial_output, np.empty(self.state.size),
                                 *self._kernel_context())
         self.last_output = self.initial_output.copy()
         if status != 0:
             raise IntegrationError(self._failure_text(status), self.time, self.state)
-        at_valley = abs(initial_angle - self.memory[MEM_LOBE_START]) <= 1e-12 * max(1.0, abs(initial_angle))
-        self.window = new_window(self.initial_output, at_valley)
-        self.contact_law_excess = 0.0
+        self.window = new_window(self.initial_output, self._at_valley)
 
     def _nominal_state(self, angle: float, omega: float) -> np.ndarray:
         """Nominal pose and velocity (docs/model.md §3.3): untilted, centred, tip centre at R0 + s + c_S; under real
@@ -190,7 +198,8 @@ class Simulation:
         y[X], y[Y], y[ANGLE] = centre[0], centre[1], angle
         y[VX], y[VY], y[ANGULAR_VELOCITY] = velocity[0], velocity[1], omega
         if real_gas:
-            y[GAS_BLOCK + LEADING_TEMPERATURE] = y[GAS_BLOCK + TRAILING_TEMPERATURE] = p.suction_temperature
+            suction_temperature = self.gas.chambers["suction_temperature"][0]
+            y[GAS_BLOCK + LEADING_TEMPERATURE] = y[GAS_BLOCK + TRAILING_TEMPERATURE] = suction_temperature
             y[GAS_BLOCK + LEADING_MASS] = y[GAS_BLOCK + TRAILING_MASS] = math.nan     # set from the volumes below
             self._fill_chambers_with_suction_gas(y)
         return y
@@ -233,8 +242,9 @@ class Simulation:
         memory[MEM_LOBE_START] = math.floor(y[ANGLE] / lobe) * lobe
         volumes = initial_chamber_inputs(0.0, y, memory, *self._kernel_context())
         dead = self.params.dead_volume
-        y[GAS_BLOCK + LEADING_MASS] = self.gas.suction_density * (volumes[0] + dead)
-        y[GAS_BLOCK + TRAILING_MASS] = self.gas.suction_density * (volumes[1] + dead)
+        suction_density = self.gas.chambers["suction_density"][0]
+        y[GAS_BLOCK + LEADING_MASS] = suction_density * (volumes[0] + dead)
+        y[GAS_BLOCK + TRAILING_MASS] = suction_density * (volumes[1] + dead)
 
     def _kernel_context(self) -> tuple:
         machine, _, *rest = self._context
@@ -261,6 +271,37 @@ class Simulation:
         if segment[0] == LINEAR or (segment[0], segment[3], segment[4]) != (law[0], law[3], law[4]):
             law[:] = segment                       # in place: the kernel's argument stays the same array
             self.control[CONTROL_HISTORY] = 0
+
+    # boundary input -------------------------------------------------------------------------------------
+    @property
+    def boundary(self) -> Boundary:
+        """The boundary conditions the run holds now (suction node, back node: thermo.flow_paths.FlowNode)."""
+        return boundary_of(self.gas.chambers)
+
+    def set_boundary(self, suction_pressure: float, discharge_pressure: float, suction_temperature=None,
+                     suction_enthalpy=None) -> None:
+        """Hold the suction state (p_s [Pa] with T_s [K] or h_s [J/kg]) and the discharge pressure p_d [Pa] from
+        the current time on (mechanics.gas.boundary: the boundary nodes solved on the property table, no CoolProp). At
+        the start time, before any advance, the chambers are filled again with the new suction gas. A value the
+        run cannot take raises ValueError naming it, before anything changes (mechanics.gas.boundary.solve_boundary)."""
+        nodes = solve_boundary(self.params, self.gas, self.boundary, suction_pressure, discharge_pressure,
+                               suction_temperature, suction_enthalpy)
+        if nodes is None:                                 # unchanged
+            return
+        self._hold(nodes)
+        self.control[CONTROL_HISTORY] = 0                 # a jump of the right-hand side: restart ABM4
+        if self.time == 0.0 and self.counters[ACCEPTED] + self.counters[REJECTED] == 0:
+            self.state[:] = self._nominal_state(self.state[ANGLE], self.state[ANGULAR_VELOCITY])
+            self._start_outputs()
+
+    def _hold(self, nodes: Boundary) -> None:
+        """Hold `nodes` and refer the per-revolution figures to them (unless they are the ones held)."""
+        if nodes == self.boundary:
+            return
+        hold_boundary(self.gas, nodes)
+        if self.gas.reference is not None:
+            self.gas_reference = (self.gas.reference if nodes == self._initial_boundary else
+                                  moved_reference(self.gas.reference, self.gas, nodes))
 
     # time loop ----------------------------------------------------------------------------------------
     def advance(self, end_time: float, speed_rpm: float | None = None, interpolate: bool = False) -> None:
@@ -410,15 +451,16 @@ class Simulation:
         p = self.params
         leading = self.last_output[OUTPUT_INDEX["leading_pressure"]]
         trailing = self.last_output[OUTPUT_INDEX["trailing_pressure"]]
+        suction_pressure, discharge_pressure = self.boundary.suction.pressure, self.boundary.back.pressure
         rpm = self.rotor_speed * 30.0 / math.pi
         text = (f"; at the last accepted step (t = {self.time:.6g} s, {rpm:.6g} rpm) p_L = {leading:.4g} Pa "
-                f"({leading / p.discharge_pressure:.3g} x discharge_pressure) and p_T = {trailing:.4g} Pa "
-                f"({trailing / p.suction_pressure:.3g} x suction_pressure)")
-        if leading > 1.5 * p.discharge_pressure:
+                f"({leading / discharge_pressure:.3g} x discharge_pressure) and p_T = {trailing:.4g} Pa "
+                f"({trailing / suction_pressure:.3g} x suction_pressure)")
+        if leading > 1.5 * discharge_pressure:
             text += (f": the discharge port (discharge_port_area = {p.discharge_port_area:g} m2, "
                      f"discharge_port_coefficient = {p.discharge_port_coefficient:g}) cannot pass the displaced gas "
                      f"at this speed; lower the speed or enlarge the port (docs/model.md §7.4)")
-        elif trailing < 0.5 * p.suction_pressure:
+        elif trailing < 0.5 * suction_pressure:
             text += (f": the suction port (suction_port_area = {p.suction_port_area:g} m2) starves the chamber at "
                      f"this speed; lower the speed or enlarge the port (docs/model.md §7.4)")
         return text
@@ -477,12 +519,20 @@ class Simulation:
         return SimulationState(self.time, *(self.recent_records if name == "recent_records" else
                                             np.array(getattr(self, name), copy=True) for name in ARRAY_FIELDS))
 
+    @property
+    def boundary_nodes(self) -> np.ndarray:
+        """The boundary nodes held, as one array (suction node, then back node: FlowNode fields)."""
+        return np.array([*self.boundary.suction, *self.boundary.back])
+
     def set_state(self, saved: SimulationState) -> None:
         """Continue from a state returned by `get_state` (the history is not rewound)."""
         self.time = saved.time
         for name in ARRAY_FIELDS:
             if name == "recent_records":
                 self.recent_records = np.asarray(saved.recent_records, dtype=np.float64)
+            elif name == "boundary_nodes":
+                self._hold(Boundary(FlowNode(*saved.boundary_nodes[:4].tolist()),
+                                    FlowNode(*saved.boundary_nodes[4:].tolist())))
             else:
                 getattr(self, name)[...] = getattr(saved, name)
         groups = revolution_groups(self.recent_records, self.params.lobes)

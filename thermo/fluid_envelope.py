@@ -30,10 +30,12 @@ benchmarks/bench_fluid_tables.py.
 """
 from __future__ import annotations
 
+import json
 import math
 from typing import NamedTuple
 
-from .fluid import SUPERHEAT_MARGIN, Fluid
+from .disk_cache import cache_path, load_or_build
+from .fluid import SUPERHEAT_MARGIN, Fluid, coolprop_version
 from .property_table import (DEFAULT_LOG_DENSITY_NODES, DEFAULT_TEMPERATURE_NODES, ENVELOPE_COLD_MARGIN,
                              ENVELOPE_HIGH_PRESSURE_FACTOR, ENVELOPE_HOT_MARGIN, ENVELOPE_LOW_PRESSURE_FACTOR, Envelope,
                              property_table_for)
@@ -128,10 +130,84 @@ def fluid_nozzle_grid(envelope: Envelope) -> tuple[int, int]:
     return _grid(envelope, NOZZLE_GRID_STEPS, (NOZZLE_TEMPERATURE_NODES, NOZZLE_LOG_DENSITY_NODES))
 
 
+class FluidRange(NamedTuple):
+    """What a run needs to find a fluid's fluid-wide tables without CoolProp: its canonical name, its declared input
+    range and the tables' envelope (both None for a fluid without one, e.g. air)."""
+    coolprop_name: str
+    inputs: InputRange | None
+    envelope: Envelope | None
+
+
+RANGE_FORMAT_VERSION = 1
+
+
+def _range_key(name: str) -> str:
+    """Everything a FluidRange depends on, as text (floats by repr); no CoolProp import."""
+    return "|".join([f"format {RANGE_FORMAT_VERSION}", f"fluid {name}", f"coolprop {coolprop_version()}",
+                     "rules " + " ".join(repr(v) for v in (*EVAPORATING_TEMPERATURE_RANGE, CONDENSING_TEMPERATURE_MAX,
+                                                           TRANSCRITICAL_MARGIN, TRANSCRITICAL_DISCHARGE_FACTOR,
+                                                           SUCTION_SUPERHEAT_MAX, SUCTION_QUALITY_MIN,
+                                                           SUPERHEAT_MARGIN, ENVELOPE_LOW_PRESSURE_FACTOR,
+                                                           ENVELOPE_HIGH_PRESSURE_FACTOR, ENVELOPE_HOT_MARGIN,
+                                                           ENVELOPE_COLD_MARGIN))])
+
+
+def _build_range(name: str) -> FluidRange:
+    fluid = Fluid(name)
+    try:
+        return FluidRange(fluid.coolprop_name, input_range(fluid), fluid_envelope(fluid))
+    except ValueError:                                   # no dome above 20 °C
+        return FluidRange(fluid.coolprop_name, None, None)
+
+
+def _floats(values, size) -> list[float]:
+    if not (isinstance(values, list) and len(values) == size and all(type(v) is float and math.isfinite(v)
+                                                                      for v in values)):
+        raise ValueError(f"{values!r:.80} is not {size} finite floats")
+    return values
+
+
+def _load_range(path, key: str) -> FluidRange:
+    """A cached FluidRange (JSON, floats by repr); ValueError unless complete and carrying `key`."""
+    stored = json.loads(path.read_bytes())
+    if not isinstance(stored, dict) or stored.get("key") != key or not isinstance(stored.get("coolprop_name"), str):
+        raise ValueError("the file belongs to another key")
+    inputs, envelope = stored.get("inputs"), stored.get("envelope")
+    if (inputs is None) != (envelope is None):
+        raise ValueError("the input range and the envelope must both be given or both be null")
+    if inputs is None:
+        return FluidRange(stored["coolprop_name"], None, None)
+    return FluidRange(stored["coolprop_name"], InputRange(*_floats(inputs, len(InputRange._fields))),
+                      Envelope(*_floats(envelope, len(Envelope._fields))))
+
+
+def fluid_range_for(name: str, cache_dir=None) -> FluidRange:
+    """The FluidRange of the fluid `name` (as a user gives it), from the disk cache (thermo.disk_cache, shipped in
+    an FMU for its default fluid) or computed with CoolProp and cached."""
+    key = _range_key(name)
+    return load_or_build(
+        cache_path(name, key, ".range.json", cache_dir), lambda stored: _load_range(stored, key),
+        lambda: _build_range(name),
+        lambda stream, found: stream.write(json.dumps({"key": key, "coolprop_name": found.coolprop_name,
+                                                       "inputs": found.inputs and list(found.inputs),
+                                                       "envelope": found.envelope and list(found.envelope)}).encode()),
+        "fluid range")
+
+
+class _Named(NamedTuple):
+    coolprop_name: str              # what property_table_for and nozzle_table_for need to find a cached table
+
+
 def fluid_tables_for(fluid, cache_dir=None):
-    """(property table, nozzle table) of `fluid` (a Fluid or a CoolProp name) over its fluid-wide envelope, with
-    the dome on (two_phase), from the disk cache or built and cached (thermo.disk_cache)."""
-    fluid = fluid if isinstance(fluid, Fluid) else Fluid(fluid)
-    envelope = fluid_envelope(fluid)
-    return (property_table_for(fluid, envelope, *fluid_grid(envelope), cache_dir=cache_dir, two_phase=True),
-            nozzle_table_for(fluid, envelope, *fluid_nozzle_grid(envelope), cache_dir=cache_dir, two_phase=True))
+    """(property table, nozzle table) of `fluid` (a Fluid or a name) over its fluid-wide envelope, with the dome
+    on (two_phase), from the disk cache or built and cached (thermo.disk_cache); with every file cached, CoolProp
+    is not imported. ValueError for a fluid without a declared input range."""
+    if isinstance(fluid, Fluid):
+        envelope, named = fluid_envelope(fluid), fluid
+    else:
+        found = fluid_range_for(fluid, cache_dir)
+        if found.envelope is None:
+            input_range(Fluid(fluid))                    # raises the ValueError that says why
+        envelope, named = found.envelope, _Named(found.coolprop_name)
+    return (property_table_for(named, envelope, *fluid_grid(envelope), cache_dir=cache_dir, two_phase=True),
+            nozzle_table_for(named, envelope, *fluid_nozzle_grid(envelope), cache_dir=cache_dir, two_phase=True))

@@ -37,14 +37,15 @@ x_lim is tabulated on a T grid 8 times finer than the table's, each cell holding
 values (x_lim increases with T), so an accepted state is never closer to the dome than the margin; the price is
 that states up to about one dome cell (the T range / 1272, 0.17 K for R134a) beyond the margin may be refused too.
 
-Two-phase dome (docs/model.md §7.3.1; off by default): a table with `two_phase` set (`with_two_phase`,
-`property_table_for(..., two_phase=True)`) takes a state beyond the dew line, rho > rho_v(T) with T on the
-accepted part of its saturation line (thermo.saturation, built with every table), as a homogeneous equilibrium
-mixture: p = p_sat(T), h = h_l + x (h_v - h_l), the mixture's c_v at constant volume, (dp/dT)_rho = dp_sat/dT and
-(dp/drho)_T = 0, with p_sat and h_v taken from the gas branch at the dew point (T, rho_v(T)) so that p and h are
-continuous across the dew line while their derivatives jump (the kink is not interpolated over: the gas table
-serves rho <= rho_v(T), the 1-D saturation table the rest). The superheat margin does not apply there; above the
-saturation line's end (a few kelvin below T_crit) the margin rule does. `table_quality` gives the vapour quality.
+Two-phase dome (docs/model.md §7.3.1; off by default, on in the fluid-wide tables a real-gas run uses): a table with
+`two_phase` set (`with_two_phase`, `property_table_for(..., two_phase=True)`) takes a state beyond the dew line, rho
+> rho_v(T) with T on the accepted part of its saturation line (thermo.saturation, built with every table), as a
+homogeneous equilibrium mixture: p = p_sat(T), h = h_l + x (h_v - h_l), the mixture's c_v at constant volume,
+(dp/dT)_rho = dp_sat/dT and (dp/drho)_T = 0, with p_sat and h_v taken from the gas branch at the dew point (T,
+rho_v(T)) so that p and h are continuous across the dew line while their derivatives jump (the kink is not
+interpolated over: the gas table serves rho <= rho_v(T), the 1-D saturation table the rest). The superheat margin
+does not apply there; above the saturation line's end (a few kelvin below T_crit) the margin rule does.
+`table_quality` gives the vapour quality.
 
 Status codes (the four values are NaN whenever status != 0; `describe_status` turns a code into a sentence):
     STATUS_OK = 0                       a gas state, or an equilibrium mixture of a two-phase table (quality < 1)

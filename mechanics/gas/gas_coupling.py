@@ -2,17 +2,18 @@
 
 - Level 0 / 0.5 (`polytropic`, `ideal_gas_table`): the p_L(phase) table of mechanics.gas.pressure_source; the chamber
   model gets placeholders it never reads.
-- Level 1 (`real_gas`): the operating point (thermo.operating_point: suction state, envelope, h_2s, references of
-  the per-revolution figures), the fluid's (T, ln rho) property table and its real-gas nozzle table for the point's
-  envelope (thermo.property_table, thermo.real_gas_nozzle), and the chamber model's constants
-  (thermo.chamber_model): the suction state consistent with the property table, the discharge plenum and back
-  chamber at p_d on the suction isentrope, the valley seal's friction-equivalent length and each leakage path's law
-  and coefficient (docs/model.md §7.4). The point and both tables are cached on disk; CoolProp is imported only to
-  compute what is not cached (docs/model.md §7.1).
+- Level 1 (`real_gas`): the operating point (thermo.operating_point: suction state, h_2s, references of the
+  per-revolution figures), the fluid's (T, ln rho) property table and its real-gas nozzle table, and the chamber
+  model's constants (thermo.chamber_model): the suction state and the discharge plenum and back chamber at p_d on
+  the suction isentrope, both solved on the property table (thermo.boundary_states), the valley seal's
+  friction-equivalent length and each leakage path's law and coefficient (docs/model.md §7.4). The tables are the
+  fluid's fluid-wide ones with the dome on (thermo.fluid_envelope) when the fluid has a declared input range that
+  holds the operating point, so that the boundary can move within that range during the run; else those of the
+  point's envelope. The point and the tables are cached on disk; CoolProp is imported only to compute what is not
+  cached (docs/model.md §7.1).
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -21,9 +22,10 @@ from ...thermo.chamber_model import chamber_constants, chamber_flow_work
 from ...thermo.gas_reference import GasReference
 from ...thermo.flow_paths import FlowNode
 from ...thermo.leakage import LEAKAGE_LAWS
+from ...thermo.boundary_states import boundary_states, describe_boundary_status
+from ...thermo.fluid_envelope import InputRange, fluid_range_for, fluid_tables_for
 from ...thermo.operating_point import operating_point_for
-from ...thermo.property_table import PropertyTable, property_table_for, table_arrays, table_properties, \
-    table_state
+from ...thermo.property_table import PropertyTable, property_table_for, table_arrays
 from ...thermo.real_gas_nozzle import (STATUS_THROAT_NEAR_SATURATION, NozzleTable, describe_nozzle_status,
                                        nozzle_table_arrays, nozzle_table_for, real_gas_mass_flux)
 
@@ -41,6 +43,7 @@ class GasCoupling(NamedTuple):
     flow_work: np.ndarray                 # the flow network's working values (thermo.chamber_model.chamber_flow_work)
     suction_density: float                # kg/m^3
     reference: object                     # thermo.gas_reference.GasReference (real gas) or None
+    input_range: object = None            # thermo.fluid_envelope.InputRange the tables cover, None: a fixed point
 
 
 def _placeholder_properties() -> PropertyTable:
@@ -95,44 +98,55 @@ def _check_nozzle_inlet(name: str, value, state: FlowNode, table: NozzleTable, w
                          + describe_nozzle_status(status, state.temperature, state.density, table, state=where))
 
 
-def _density_at_pressure(temperature, pressure, guess, table: PropertyTable) -> float:
-    """rho with p(T, rho) = p on the property table (Newton on (dp/drho)_T from `guess`); NaN if the table refuses
-    a state on the way or Newton does not converge."""
-    density = guess
-    for _ in range(50):
-        state = table_state(temperature, density, table)
-        step = (state.pressure - pressure) / state.pressure_density_derivative
-        density -= step
-        if not math.isfinite(density) or abs(step) < 1e-13 * density:
-            return density
-    return math.nan
+def fluid_wide_range(p: CompressorParameters) -> InputRange | None:
+    """The declared input range of the fluid-wide tables (thermo.fluid_envelope) if they serve this run: a fluid
+    that has one, and the parameters' operating point inside it; else None (the run uses per-point tables)."""
+    inputs = fluid_range_for(p.fluid).inputs
+    if inputs is None:                                # no dome above 20 °C (air): per operating point
+        return None
+    inside = (inputs.suction_pressure_min <= p.suction_pressure <= inputs.suction_pressure_max
+              and p.discharge_pressure <= inputs.discharge_pressure_max
+              and p.suction_temperature <= inputs.suction_temperature_max)
+    return inputs if inside else None
 
 
-def _back_chamber(point, table: PropertyTable) -> FlowNode:
-    """The discharge plenum and back chamber (docs/model.md §7.4): p_d on the suction isentrope, T_2s = T(p_d, h_2s)
-    from the operating point, rho on the property table, h its h (so a warm start asks no CoolProp)."""
-    temperature = point.discharge_temperature(point.isentropic_discharge_enthalpy)
-    density = _density_at_pressure(temperature, point.discharge_pressure,
-                                   point.discharge_pressure / (point.gas_constant * temperature), table)
-    return FlowNode(temperature, density, point.discharge_pressure, table_properties(temperature, density,
-                                                                                           table)[1])
+def boundary_nodes_of(suction_pressure, suction_value, by_enthalpy, discharge_pressure, guess: FlowNode,
+                      properties) -> tuple[FlowNode, FlowNode, int, int]:
+    """(suction node, back node, status, which node failed) on the property table (`properties`: its
+    table_arrays) for p_s, T_s (or h_s if `by_enthalpy`) and p_d; thermo.boundary_states, from the suction state
+    `guess`."""
+    values = boundary_states(float(suction_pressure), float(suction_value), bool(by_enthalpy),
+                             float(discharge_pressure), guess.temperature, guess.density, *properties)
+    t_s, rho_s, h_s, t_d, rho_d, h_d, status, which = values
+    if by_enthalpy and status == 0:
+        h_s = float(suction_value)         # the input itself (the solve meets it to 1e-12): an unchanged input
+                                           # is then recognised as such
+    return (FlowNode(t_s, rho_s, float(suction_pressure), h_s), FlowNode(t_d, rho_d, float(discharge_pressure), h_d),
+            int(status), int(which))
 
 
 def _real_gas_coupling(p: CompressorParameters) -> GasCoupling:
     point = operating_point_for(p.fluid, p.suction_pressure, p.suction_temperature, p.discharge_pressure)
-    table = property_table_for(point, point.envelope)
-    nozzles = nozzle_table_for(point, point.envelope)
-    suction = FlowNode(p.suction_temperature, point.suction_density, p.suction_pressure,
-                            table_properties(p.suction_temperature, point.suction_density, table)[1])
-    discharge = _back_chamber(point, table)
+    inputs = fluid_wide_range(p)
+    if inputs is not None:
+        table, nozzles = fluid_tables_for(p.fluid)
+    else:
+        table, nozzles = property_table_for(point, point.envelope), nozzle_table_for(point, point.envelope)
+    properties = table_arrays(table)
+    guess = FlowNode(p.suction_temperature, point.suction_density, p.suction_pressure, point.suction_enthalpy)
+    suction, discharge, status, which = boundary_nodes_of(p.suction_pressure, p.suction_temperature, False,
+                                                          p.discharge_pressure, guess, properties)
+    if status != 0:                # the table misses a state of a point CoolProp accepted: a table too small
+        raise ValueError(f"parameter '{'suction_temperature' if which == 1 else 'discharge_pressure'}' is out of "
+                         f"range for the {p.fluid} property table: {describe_boundary_status(status)}")
     _check_nozzle_inlet("fluid", p.fluid, suction, nozzles, "suction state")
     if p.slot_leak_law != "sealed":
         _check_nozzle_inlet("slot_leak_law", p.slot_leak_law, discharge, nozzles,
                             "back chamber (p_d on the suction isentrope)")
     reference = GasReference(point, p.lobes * p.axial_length * lobe_area(p))
-    return GasCoupling(np.zeros(2), table_arrays(table), nozzle_table_arrays(nozzles),
+    return GasCoupling(np.zeros(2), properties, nozzle_table_arrays(nozzles),
                        _constants(p, suction, discharge, valley_seal_length(p)), chamber_flow_work(),
-                       point.suction_density, reference)
+                       point.suction_density, reference, inputs)
 
 
 def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCoupling:
@@ -145,4 +159,4 @@ def gas_coupling(params: CompressorParameters, operating_speed: float) -> GasCou
     suction = FlowNode(p.suction_temperature, density, p.suction_pressure, enthalpy)
     return GasCoupling(leading_pressure_table(p, operating_speed), table_arrays(_placeholder_properties()),
                        nozzle_table_arrays(_placeholder_nozzles()), _constants(p, suction, suction, 0.0),
-                       chamber_flow_work(), density, None)
+                       chamber_flow_work(), density, None, None)

@@ -14,11 +14,12 @@ from typing import NamedTuple
 import numpy as np
 
 from ...kernels.kernel import kernel
-from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_TEMPERATURE, MASS_SUCTION, TRAILING_TEMPERATURE,
-                                     ChamberInputs, chamber_energy, chamber_rates)
+from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_SUCTION,
+                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, chamber_energy,
+                                     chamber_rates, volumes_with_dead_volume)
 from ...thermo.flow_paths import PATH
 from ...thermo.leakage import parabolic_flank_length, tapered_gap_length
-from ...thermo.property_table import PropertyTable
+from ...thermo.property_table import PropertyTable, table_quality
 from ...thermo.real_gas_nozzle import NozzleTable
 
 from ..geometry.chamber_geometry import SectorTable, chamber_geometry
@@ -205,6 +206,11 @@ def report_chambers(out, y, inputs, work, status, leading, trailing, c, table):
     network's working values `work` and FlowStatus `status` of chamber_rates there."""
     out[O.leading_temperature] = y[GAS_BLOCK + LEADING_TEMPERATURE]
     out[O.trailing_temperature] = y[GAS_BLOCK + TRAILING_TEMPERATURE]
+    volume_leading, volume_trailing = volumes_with_dead_volume(inputs, c)
+    out[O.leading_quality] = table_quality(y[GAS_BLOCK + LEADING_TEMPERATURE],
+                                           y[GAS_BLOCK + LEADING_MASS] / volume_leading, table)
+    out[O.trailing_quality] = table_quality(y[GAS_BLOCK + TRAILING_TEMPERATURE],
+                                            y[GAS_BLOCK + TRAILING_MASS] / volume_trailing, table)
     mass, energy = chamber_energy(y, GAS_BLOCK, inputs, c, table)
     out[O.chamber_mass] = mass
     out[O.chamber_internal_energy] = energy

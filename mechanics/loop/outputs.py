@@ -106,6 +106,10 @@ STEP_OUTPUTS = (
     Output("back_volume", "m3", "back-chamber volume: the slot below the vane's bottom face (docs/model.md §7.2)"),
     Output("leading_temperature", "K", "leading-chamber temperature", REAL_GAS),
     Output("trailing_temperature", "K", "trailing-chamber temperature", REAL_GAS),
+    Output("leading_quality", "1", "leading-chamber vapour quality (1 for a gas; below 1 an equilibrium mixture "
+                                   "inside the dome, docs/model.md §7.3.1)", REAL_GAS, fmu="leading_chamber_quality"),
+    Output("trailing_quality", "1", "trailing-chamber vapour quality (as leading_quality)", REAL_GAS,
+           fmu="trailing_chamber_quality"),
     Output("chamber_mass", "kg", "gas mass in the two chambers", REAL_GAS),
     Output("chamber_internal_energy", "J", "internal energy of the gas in the two chambers", REAL_GAS),
     Output("suction_mass_flow", "kg/s", "mass flow through the suction port into both chambers", REAL_GAS),

@@ -288,3 +288,20 @@ def test_motor_sizing_figures(coupling):
     assert motor["steady_electrical_power"] > motor["steady_shaft_power"] > 0.0
     assert abs(motor["steady_drift"]) < 1e-3
     assert undersized["stalled"]
+
+
+# moving inputs --------------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_moving_inputs_reach_the_fixed_point_run_and_conserve_the_flows(built_fmus, env, tmp_path):
+    """examples/moving_inputs.py, the issue's run (about 20 s of fmpy on an idle machine): from standstill at equal
+    pressures to 1500 rpm and 0.2928 -> 1.3179 MPa; the final input power and discharge mass flow within 1 % of a
+    run started there, the step means summing to the cumulative flows to 1e-9."""
+    out = tmp_path / "moving_inputs"
+    done = succeeded(run_example("moving_inputs.py", out, built_fmus, env))
+    assert_files(out, ["moving_inputs.csv", "moving_inputs.png", "summary.json"])
+    summary = json.loads((out / "summary.json").read_text())
+    for name, (moving, reference, difference) in \
+            summary["final_figures (moving, reference, relative difference)"].items():
+        assert abs(moving / reference - 1.0) <= 0.01 and abs(difference) <= 0.01, (name, moving, reference)
+    assert all(value <= 1e-9 for value in summary["conservation (relative)"].values()), summary
+    assert "within 1% of the reference: True" in done.stdout

@@ -192,7 +192,6 @@ for speed in (-5.0, math.nan, 1e9):
 set_real(f, vr, "shaft_speed", 1500.0)
 record("C15", "doStep after the discarded steps, fixed input", step(f, t, 1e-3))
 t += 1e-3
-
 # C3 after fmi2Terminate
 record("C15", "terminate", status(f.terminate))
 record("C3", "doStep after terminate", step(f, t, 1e-3))
@@ -205,6 +204,34 @@ record("messages", "all", 0)
 out["messages"] = [m for _, _, m in host.messages()]
 out["error state messages"] = error_messages
 f.freeInstance()
+
+# C10: the boundary inputs of the real-gas model: not a number > 0, outside the tables' range, a state the tables
+# cannot hold
+gas_host = H.Host($fmu)
+g, gvr = gas_host.fmu, {name: v.valueReference for name, v in gas_host.variables.items()}
+assert gas_host.initialize(**{**H.OPERATING_POINT, "pressure_model": "real_gas"}) == H.OK
+assert step(g, 0.0, 1e-3) == H.OK
+for name, value, good in (("suction_pressure", -1e5, 292800.0), ("discharge_pressure", math.nan, 1317900.0),
+                          ("discharge_pressure", 3e7, 1317900.0), ("suction_pressure", math.inf, 292800.0),
+                          ("suction_temperature", 240.0, 283.15)):
+    set_real(g, gvr, name, value)
+    before = blob(g)
+    record("C10", f"real_gas doStep with {name} = {value!r}", step(g, 1e-3, 1e-3))
+    record("unchanged", f"after {name} = {value!r}", blob(g) == before)
+    set_real(g, gvr, name, good)
+record("C15", "real_gas doStep after the discarded steps", step(g, 1e-3, 1e-3))
+out["boundary messages"] = [m for _, _, m in gas_host.messages()]
+gas_host.close()
+
+# C27: a pressure-table model takes no other boundary than the one it was built for
+table_host = H.Host($fmu)
+assert table_host.initialize(**{**H.OPERATING_POINT, "pressure_model": "polytropic"}) == H.OK
+table_host.set(discharge_pressure=1.4e6)
+record("C27", "doStep of pressure_model polytropic with a changed discharge_pressure", table_host.step(0.0, 1e-3))
+table_host.set(discharge_pressure=1317900.0)
+record("C15", "doStep of pressure_model polytropic after the input is back", table_host.step(0.0, 1e-3))
+out["table messages"] = [m for _, _, m in table_host.messages()]
+table_host.close()
 H.emit(out)
 """
 
@@ -245,9 +272,10 @@ def bad_parameters(fmu, env):
 INTEGRATION_FAILURE = PRELUDE + """
 host = H.Host($fmu)
 f = host.fmu
-# 15000 rpm behind the default 20 mm2 discharge port: the leading chamber over-compresses out of the fluid's
-# property table near t = 1.1 ms and the run stops there
-assert host.initialize(**dict(H.OPERATING_POINT, shaft_speed=15000.0, pressure_model="real_gas")) == H.OK
+# 15000 rpm behind a 5 mm2 discharge port: the leading chamber over-compresses out of the fluid's property table
+# near t = 1.1 ms and the run stops there
+assert host.initialize(**dict(H.OPERATING_POINT, shaft_speed=15000.0, pressure_model="real_gas",
+                              discharge_port_area=5e-6)) == H.OK
 assert step(f, 0.0, 1e-3) == H.OK
 before = blob(f)
 record("C11", "doStep of 1 ms across the failure", step(f, 1e-3, 1e-3))
@@ -436,7 +464,7 @@ def test_contract_row(row, misuse, bad_parameters, integration_failure, no_gas, 
 
 
 def test_the_readme_table_has_the_rows_this_file_runs():
-    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 27)]
+    assert sorted(contract_rows(), key=lambda r: int(r[1:])) == [f"C{k}" for k in range(1, 28)]
 
 
 def test_crafted_states_the_work_bound_and_the_stop_time_say_why(safe_glue):
@@ -489,6 +517,14 @@ def test_messages_name_the_state_and_the_cause(misuse):
     assert "communication step size = nan s is invalid: allowed a finite value > 0" in messages
     assert "does not continue the model time: allowed t = 0.001 s" in messages
     assert "input 'shaft_speed' = -5.0 rpm is invalid: allowed [0, 30000] rpm" in messages
+    boundary = "\n".join(misuse["boundary messages"])
+    assert "input 'suction_pressure' = -100000.0 Pa is out of range: allowed a finite number > 0" in boundary
+    assert "input 'discharge_pressure' = 30000000.0 Pa is out of range: allowed (0, 2.11683e+06] Pa" in boundary
+    assert "input 'suction_temperature' = 240.0 K is out of range: allowed a state inside the R134a property " \
+           "table" in boundary
+    assert any("input 'discharge_pressure' = 1400000.0 Pa is out of range: allowed 1317900.0 (the parameter's "
+               "value): the pressure table of pressure_model 'polytropic' is built for one operating point" in m
+               for m in misuse["table messages"]), misuse["table messages"]
     assert "no RVFMUSTATE header" in messages and "checksum mismatch" in messages and "version 7" in messages
     assert "another model or build" in messages and "content is not a state of this build" in messages
     in_error = [m for m in misuse["error state messages"] if "not allowed in the error state" in m]

@@ -349,9 +349,12 @@ def is_numeric(meta):
 
 
 def _declarations():
+    """The declared parameters that are FMU parameters (the operating point's are the FMU's boundary inputs,
+    fmu_src.boundary_inputs)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+    from rotary_vane.fmu_src.boundary_inputs import BOUNDARY_INPUTS
     from rotary_vane.mechanics.parameters import declarations
-    return {name: (default, meta) for name, default, meta in declarations()}
+    return {name: (default, meta) for name, default, meta in declarations() if name not in BOUNDARY_INPUTS}
 
 
 def _init_ops(*sets, steps=2, step=SMALL_STEP):
@@ -420,8 +423,14 @@ def parameter_cases(rng):
         add(f"interpolate_speed={value}", [("interpolate_speed", value)], None)
     # relations between parameters (each message must name the parameter it reports)
     add("discharge_pressure < suction_pressure", [("discharge_pressure", 2e5)], True, ("discharge_pressure", 2e5))
-    add("discharge_pressure == suction_pressure", [("discharge_pressure", 292800.0)], True,
-        ("discharge_pressure", 292800.0))
+    add("discharge_pressure == suction_pressure", [("discharge_pressure", 292800.0)], None)   # a start at rest
+    # the boundary inputs' start values at initialization (fmu_src.boundary_inputs)
+    for name, value in (("suction_pressure", math.nan), ("suction_pressure", -1.0), ("discharge_pressure", math.inf),
+                        ("suction_temperature", -5.0), ("suction_pressure", 5e6)):
+        add(f"{name}={value!r}", [(name, value)], True, (name, value))
+    add("suction_temperature below the dew point", [("suction_temperature", 250.0)], True,
+        ("suction_temperature", 250.0))
+    add("suction_state_input='enthalpy' (in range)", [("suction_state_input", "enthalpy")], None)
     add("initial_step > max_step", [("initial_step", 1e-4)], True, ("initial_step", None))
     add("stroke >= base radius", [("stroke", 0.02)], True, ("stroke", 0.02))
     add("slot wider than rotor", [("vane_thickness", 0.02), ("rotor_radius", 0.015)], True, (None, None))

@@ -89,12 +89,13 @@ def test_an_fmu_on_a_machine_with_an_empty_cache_runs_the_kernels_it_ships(shipp
 
 
 def test_the_fmu_ships_the_default_fluid_data_and_a_changed_key_builds_its_own(fmu, tmp_path):
-    """The shipped property table, nozzle table and operating point are named by their keys (thermo.disk_cache):
-    a run whose key differs (another suction temperature) does not read them but builds and caches its own."""
+    """The shipped fluid-wide property and nozzle tables of R134a, their range file and the default operating
+    point are named by their keys (thermo.disk_cache): a run at another suction temperature, inside the fluid's
+    range, reads the shipped tables and builds and caches only its own operating point."""
     with zipfile.ZipFile(fmu) as archive:
         shipped = sorted(n.rsplit("/", 1)[1] for n in archive.namelist() if "/shipped_data/" in n)
-    assert len(shipped) == 3 and any("operating-point" in n for n in shipped) and \
-        any(n.startswith("nozzle-R134a") for n in shipped), shipped
+    assert len(shipped) == 4 and any("operating-point" in n for n in shipped) and \
+        any(n.startswith("nozzle-R134a") for n in shipped) and any(n.endswith(".range.json") for n in shipped), shipped
     env = H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path / "cache")})
     H.run_host(f"""
 import fmu_helpers as H
@@ -104,7 +105,7 @@ host.run(0.0, 1e-3, 5)
 H.emit({{}})
 """, env=env).check()
     built = sorted(path.name for path in (tmp_path / "cache" / "properties").iterdir())
-    assert len(built) == 3 and not set(built) & set(shipped), (built, shipped)
+    assert len(built) == 1 and "operating-point" in built[0] and not set(built) & set(shipped), (built, shipped)
 
 
 @pytest.mark.slow

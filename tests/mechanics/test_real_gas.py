@@ -80,15 +80,32 @@ def test_per_revolution_figures_against_coolprop(nominal):
 
 
 def test_a_refused_chamber_state_stops_the_run_with_its_exact_vapour_quality():
-    """A chamber pushed into the dome stops the run; the message names the chamber and its vapour quality, which
-    comes from CoolProp (made only then: the run itself needs no CoolProp once its data are cached)."""
-    sim = run(revs=0.025)
+    """On per-point tables (a discharge pressure above R134a's declared input range, 2.12 MPa) a chamber pushed
+    into the dome stops the run; the message names the chamber and its vapour quality, which comes from CoolProp
+    (made only then: the run itself needs no CoolProp once its data are cached)."""
+    sim = run(revs=0.025, discharge_pressure=2.5e6)
+    assert sim.gas.input_range is None
     sim.state[GAS_BLOCK + LEADING_TEMPERATURE] = 260.0           # R134a at 260 K and the chamber's density: wet
     density = sim.state[GAS_BLOCK + LEADING_MASS] / sim.last_output[OUTPUT_INDEX["leading_volume"]]
     quality = CoolProp.CoolProp.PropsSI("Q", "T", 260.0, "D", density, "R134a")
     with pytest.raises(IntegrationError, match="leading chamber") as stopped:
         sim.advance(sim.time + 1e-3)
     assert f"vapour quality {quality:.4g} from HEOS" in str(stopped.value)
+
+
+def test_on_the_fluid_wide_tables_a_chamber_in_the_dome_is_a_mixture_with_its_quality():
+    """docs/model.md §7.3.1: on the fluid-wide tables (the default R134a point) the same push into the dome runs on
+    as an equilibrium mixture, and the output row gives the chamber's vapour quality (CoolProp's, to 1e-4)."""
+    sim = run(revs=0.025)
+    assert sim.gas.input_range is not None
+    sim.state[GAS_BLOCK + LEADING_TEMPERATURE] = 260.0
+    density = sim.state[GAS_BLOCK + LEADING_MASS] / sim.last_output[OUTPUT_INDEX["leading_volume"]]
+    quality = CoolProp.CoolProp.PropsSI("Q", "T", 260.0, "D", density, "R134a")
+    status, _, row = sim.evaluate(sim.time, sim.state)
+    assert status == 0 and 0.0 < quality < 1.0
+    assert row["leading_quality"] == pytest.approx(quality, abs=1e-4) and row["trailing_quality"] == 1.0
+    sim.advance(sim.time + 1e-3)
+    assert math.isfinite(sim.outputs["leading_pressure"])
 
 
 def test_closed_chamber_follows_the_isentrope():

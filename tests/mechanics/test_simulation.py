@@ -84,10 +84,10 @@ def test_instances_are_independent():
 
 
 def test_numerical_failure_raises_integration_error_with_time_and_state():
-    """A run the model cannot carry (15000 rpm behind the default discharge port: the leading chamber
-    over-compresses out of the fluid's property table) stops with IntegrationError carrying the time, the state and
-    a message that names the port parameters."""
-    params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3)
+    """A run the model cannot carry (15000 rpm behind a 5 mm2 discharge port: the leading chamber over-compresses
+    out of the fluid's property table, to 8 p_d at 1.1 ms) stops with IntegrationError carrying the time, the state
+    and a message that names the port parameters."""
+    params = CompressorParameters(slot_clearance=0.05e-3, stator_clearance=0.05e-3, discharge_port_area=5e-6)
     sim = Simulation(params, constant_speed(15000.0))
     with pytest.raises(IntegrationError) as failure:
         sim.advance(0.05)

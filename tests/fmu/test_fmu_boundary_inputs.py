@@ -1,0 +1,114 @@
+"""The built compressor FMU with its suction and discharge conditions as inputs (fmu_src.boundary_inputs): declared
+ranges from the R134a tables it ships, a start from standstill at equal pressures, moving pressures with the flow
+outputs conserving mass and enthalpy across the interface step by step, a wet suction state given by enthalpy.
+Bad inputs and the pressure-table models' refusals are contract rows C10 and C27 (tests/fmu/test_fmu_contract.py)."""
+import math
+from pathlib import Path
+
+import pytest
+
+import fmu_helpers as H
+
+CONSERVATION = 1e-9                # relative: sums of step means x h against the cumulative outputs
+
+
+@pytest.fixture(scope="module")
+def fmu(built_fmus) -> Path:
+    return built_fmus / "RotaryVaneCompressor.fmu"
+
+
+@pytest.fixture(scope="module")
+def env(tmp_path_factory) -> dict:
+    return H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("numba_cache"))})
+
+
+def test_declared_ranges_are_those_of_the_shipped_r134a_tables(fmu):
+    from fmpy import read_model_description
+
+    from rotary_vane.thermo.fluid import Fluid
+    from rotary_vane.thermo.fluid_envelope import input_range
+    variables = {v.name: v for v in read_model_description(str(fmu)).modelVariables}
+    fluid = Fluid("R134a")
+    inputs = input_range(fluid)
+    coldest = fluid.saturation_temperature(inputs.suction_pressure_min)
+    expected = {
+        "suction_pressure": (inputs.suction_pressure_min, inputs.discharge_pressure_max),
+        "discharge_pressure": (inputs.suction_pressure_min, inputs.discharge_pressure_max),
+        "suction_temperature": (coldest + 1.0, inputs.suction_temperature_max),
+        "suction_enthalpy": (fluid.saturated_state(coldest, inputs.suction_quality_min).hmass(),
+                             fluid.properties(inputs.suction_temperature_max,
+                                              fluid.density(inputs.suction_temperature_max,
+                                                            inputs.suction_pressure_min)).enthalpy)}
+    for name, (low, high) in expected.items():
+        variable = variables[name]
+        assert variable.causality == "input" and variable.variability == "continuous", name
+        assert float(variable.min) == pytest.approx(low, rel=1e-6), name
+        assert float(variable.max) == pytest.approx(high, rel=1e-6), name
+    assert variables["suction_state_input"].causality == "parameter"
+
+
+RUN = """
+import math
+import fmu_helpers as H
+out = {}
+host = H.Host($fmu)
+# standstill at equal pressures, 10 K superheat
+assert host.initialize(shaft_speed=0.0, rotor_inertia=0.0, suction_pressure=0.6e6, discharge_pressure=0.6e6,
+                       suction_temperature=304.72) == H.OK, host.messages()
+h, t, rows = 1e-3, 0.0, []
+for k in range(120):
+    host.set(shaft_speed=min(1500.0, 1500.0 * t / 0.03), discharge_pressure=0.6e6 + 0.4e6 * min(1.0, t / 0.1))
+    status = host.step(t, h)
+    assert status == H.OK, (t, status, host.messages()[-3:])
+    t += h
+    rows.append(host.outputs())
+out["rows"] = rows
+out["warnings"] = [m for s, _, m in host.messages() if s == H.WARNING][:3]
+host.close()
+# a wet suction state (quality 0.95 at 0.2928 MPa) by enthalpy, one revolution at 1500 rpm
+wet = H.Host($fmu)
+assert wet.initialize(shaft_speed=1500.0, suction_state_input="enthalpy", suction_enthalpy=$wet_enthalpy) == H.OK, \\
+    wet.messages()
+out["wet"] = wet.run(0.0, 1e-3, 45)[-1]
+wet.close()
+H.emit(out)
+"""
+
+
+@pytest.fixture(scope="module")
+def boundary_run(fmu, env):
+    from rotary_vane.thermo.fluid import Fluid
+    fluid = Fluid("R134a")
+    wet_enthalpy = fluid.saturated_state(fluid.saturation_temperature(0.2928e6), 0.95).hmass()
+    from string import Template
+    script = Template(RUN).substitute(fmu=repr(str(fmu)), wet_enthalpy=repr(wet_enthalpy))
+    return H.run_host(script, env=env).check().result
+
+
+def test_a_start_from_standstill_at_equal_pressures_runs_and_says_when_nothing_is_delivered(boundary_run):
+    """At rest with p_s = p_d the valve passes only the little gas the vane displaces as it settles from its
+    nominal pose (measured 1e-8 kg, 2e-4 of the chambers' gas); at speed it delivers; a step in which it stays
+    shut reports the discharge plenum's enthalpy as its mean discharge enthalpy (finite, with fmi2OK)."""
+    rows = boundary_run["rows"]
+    assert abs(rows[0]["delivered_mass"]) < 1e-7, rows[0]["delivered_mass"]
+    assert rows[-1]["delivered_mass"] > 1e-5
+    shut = [row for before, row in zip(rows, rows[1:]) if row["delivered_mass"] == before["delivered_mass"]]
+    assert shut and all(math.isfinite(row["discharge_enthalpy_mean"]) for row in rows)
+    assert boundary_run["warnings"] == []
+
+
+def test_step_means_sum_to_the_cumulative_flows(boundary_run, check):
+    rows, h = boundary_run["rows"], 1e-3
+    last = rows[-1]
+    delivered = [b["delivered_mass"] - a["delivered_mass"] for a, b in zip([dict(delivered_mass=0.0)] + rows, rows)]
+    sums = {"drawn_mass": sum(r["suction_mass_flow_mean"] for r in rows) * h,
+            "delivered_mass": sum(r["discharge_mass_flow_mean"] for r in rows) * h,
+            "delivered_enthalpy": sum(r["discharge_enthalpy_mean"] * m for r, m in zip(rows, delivered))}
+    for name, total in sums.items():
+        check(f"FMU flow outputs: sum of step means x h vs {name}", abs(total / last[name] - 1.0), CONSERVATION)
+
+
+def test_a_wet_suction_state_given_by_enthalpy_runs_a_revolution(boundary_run):
+    wet = boundary_run["wet"]
+    assert 0.0 < wet["volumetric_efficiency"] < 1.0 and wet["input_power"] > 0.0, wet
+    assert wet["discharge_mass_flow"] > 0.0 and math.isfinite(wet["discharge_temperature"]), wet
