@@ -3,23 +3,12 @@ ranges from the R134a tables it ships, a start from standstill at equal pressure
 outputs conserving mass and enthalpy across the interface step by step, a wet suction state given by enthalpy.
 Bad inputs and the pressure-table models' refusals are contract rows C10 and C27 (tests/fmu/test_fmu_contract.py)."""
 import math
-from pathlib import Path
 
 import pytest
 
 import fmu_helpers as H
 
 CONSERVATION = 1e-9                # relative: sums of step means x h against the cumulative outputs
-
-
-@pytest.fixture(scope="module")
-def fmu(built_fmus) -> Path:
-    return built_fmus / "RotaryVaneCompressor.fmu"
-
-
-@pytest.fixture(scope="module")
-def env(tmp_path_factory) -> dict:
-    return H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("numba_cache"))})
 
 
 def test_declared_ranges_are_those_of_the_shipped_r134a_tables(fmu):

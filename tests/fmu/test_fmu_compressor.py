@@ -74,20 +74,7 @@ def assert_no_fatal(statuses, context=""):
     assert "FATAL" not in statuses and "ERROR" not in statuses, f"{context}: call statuses {statuses}"
 
 
-# fixtures -------------------------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def fmu(built_fmus) -> Path:
-    """RotaryVaneCompressor.fmu built once per session from this checkout (or the file named by the environment
-    variable RVC_FMU_UNDER_TEST, to test a given build)."""
-    if os.environ.get("RVC_FMU_UNDER_TEST"):
-        return Path(os.environ["RVC_FMU_UNDER_TEST"]).resolve()
-    return built_fmus / "RotaryVaneCompressor.fmu"
-
-
-@pytest.fixture(scope="module")
-def env(tmp_path_factory) -> dict:
-    """Host environment with a private numba cache for this module."""
-    return H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("numba_cache"))})
+# (the fixtures fmu and env: tests/fmu/conftest.py)
 
 
 SHORT_RUN = """

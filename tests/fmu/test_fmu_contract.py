@@ -35,16 +35,6 @@ def status_name(status: int | str) -> str:
     return H.STATUS_NAMES[status] if isinstance(status, int) else status
 
 
-@pytest.fixture(scope="module")
-def fmu(built_fmus) -> Path:
-    return built_fmus / "RotaryVaneCompressor.fmu"
-
-
-@pytest.fixture(scope="module")
-def env(tmp_path_factory) -> dict:
-    return H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("numba_cache"))})
-
-
 # host side: shared by the scripts below --------------------------------------------------------------------------
 PRELUDE = """
 import ctypes, math, os, pickle, struct, zlib

@@ -58,11 +58,6 @@ def run_cycles(fmu: Path, env: dict, cycles: int, full: bool) -> list:
     return H.run_host(script(CYCLES, fmu=fmu, cycles=cycles, full=full), env=env, timeout=900).check().result
 
 
-@pytest.fixture(scope="module")
-def env(tmp_path_factory) -> dict:
-    return H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("numba_cache"))})
-
-
 @pytest.mark.slow
 def test_300_run_cycles_keep_memory_and_sys_path_flat(built_fmus, env):
     rows = run_cycles(built_fmus / "RotaryVaneCompressor.fmu", env, 300, True)

@@ -45,11 +45,6 @@ def compare(built_fmus, env, cases):
     return H.run_host(script, env=env, timeout=900).check().result
 
 
-@pytest.fixture(scope="module")
-def env(tmp_path_factory):
-    return H.host_environment(**{H.CACHE_ENVIRONMENT_VARIABLE: str(tmp_path_factory.mktemp("cache"))})
-
-
 def waveform_error(detailed, mapped, speed):
     """RMS of (map - detailed) shaft torque over the last revolution / RMS of the detailed ripple."""
     per_revolution = int(round(60.0 / speed / STEP))

@@ -41,11 +41,6 @@ H.emit({"rows": rows, "messages": messages, "compiled": compiled})
 """
 
 
-@pytest.fixture(scope="module")
-def fmu(built_fmus) -> Path:
-    return built_fmus / f"{H.MODEL}.fmu"
-
-
 def stamp_of(fmu: Path) -> dict:
     with zipfile.ZipFile(fmu) as archive:
         return json.loads(archive.read(next(n for n in archive.namelist() if n.endswith(STAMP_MEMBER))))
