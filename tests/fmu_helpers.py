@@ -285,6 +285,24 @@ def finite(values) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
+# What a script for run_json_script starts with: its spec from argv[1], and `load(path, name)`, which instantiates
+# an FMU with fmpy's FMU2Slave and leaves it in initialization mode (returns the slave and its value references).
+JSON_SCRIPT_PREAMBLE = r'''import json, sys
+from fmpy import read_model_description, extract
+from fmpy.fmi2 import FMU2Slave
+spec = json.loads(sys.argv[1])
+
+def load(path, name):
+    md = read_model_description(path)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName=name)
+    fmu.instantiate(loggingOn=True)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+'''
+
+
 def run_json_script(script: str, spec: dict, cwd, timeout: float = 300.0):
     """Run `script` in a fresh interpreter in `cwd` with the JSON `spec` as argv[1]; it prints one line
     'RESULT <json>'. Return (that result, the completed process); fail if the script did not finish."""

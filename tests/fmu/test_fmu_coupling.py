@@ -34,21 +34,7 @@ ECCO = dict(safety_factor=0.8, step_size=1e-3, min_step_size=1e-4, max_step_size
 
 RECORD = ("time", "speed", "angle", "electrical_energy", "motor_work", "shaft_work", "compressor_angle")
 
-GAUSS_SEIDEL = r'''
-import json, sys
-from fmpy import read_model_description, extract
-from fmpy.fmi2 import FMU2Slave
-spec = json.loads(sys.argv[1])
-
-def load(path, name):
-    md = read_model_description(path)
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName=name)
-    fmu.instantiate(loggingOn=True)
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    return fmu, {v.name: v.valueReference for v in md.modelVariables}
-
+GAUSS_SEIDEL = fmu_helpers.JSON_SCRIPT_PREAMBLE + r'''
 motor, m = load(spec["motor"], "motor")
 compressor, c = load(spec["compressor"], "compressor")
 for name, value in spec["motor_start"].items():

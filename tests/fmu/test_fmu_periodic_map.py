@@ -123,21 +123,7 @@ for clearance in (2e-5, 3e-5):
     assert len(built) == 1, run.stderr[-2000:]
 
 
-STARTUP = r'''
-import json, sys
-from fmpy import read_model_description, extract
-from fmpy.fmi2 import FMU2Slave
-spec = json.loads(sys.argv[1])
-
-def load(path, name):
-    md = read_model_description(path)
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName=name)
-    fmu.instantiate(loggingOn=True)
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    return fmu, {v.name: v.valueReference for v in md.modelVariables}
-
+STARTUP = H.JSON_SCRIPT_PREAMBLE + r'''
 result = {}
 for fidelity in ("detailed", "periodic_map"):
     motor, m = load(spec["motor"], "motor")

@@ -30,11 +30,6 @@ SMALL_GRID = (40, 40)
 
 
 @pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    return tmp_path_factory.mktemp("points")
-
-
-@pytest.fixture(scope="module")
 def points(cache_dir):
     """name -> (p_s, T_s, p_d, point) at the fluid's typical operating point, computed on first use."""
     made = {}

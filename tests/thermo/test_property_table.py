@@ -32,22 +32,9 @@ LIGHT_FLUIDS = ("R410A", "R1234yf", "R290")
 
 
 @pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    return tmp_path_factory.mktemp("properties")
-
-
-@pytest.fixture(scope="module")
-def tables(cache_dir):
+def tables(tables_for):
     """name -> (fluid, envelope, table), built on first use."""
-    built = {}
-
-    def get(name):
-        if name not in built:
-            fluid = Fluid(name)
-            envelope = envelope_for(fluid, *typical_operating_point(fluid))
-            built[name] = (fluid, envelope, property_table_for(fluid, envelope, cache_dir=cache_dir))
-        return built[name]
-    return get
+    return tables_for(property_table_for, typical_operating_point)
 
 
 def exact(fluid, temperature, density):

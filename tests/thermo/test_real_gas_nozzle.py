@@ -33,22 +33,9 @@ OPERATING_POINTS = {"R134a": (0.2928e6, 283.15, 1.3179e6),      # docs/model.md 
 
 
 @pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    return tmp_path_factory.mktemp("nozzle_tables")
-
-
-@pytest.fixture(scope="module")
-def tables(cache_dir):
+def tables(tables_for):
     """name -> (fluid, envelope, table), built on first use."""
-    built = {}
-
-    def get(name):
-        if name not in built:
-            fluid = Fluid(name)
-            envelope = envelope_for(fluid, *OPERATING_POINTS[name])
-            built[name] = (fluid, envelope, nozzle_table_for(fluid, envelope, cache_dir=cache_dir))
-        return built[name]
-    return get
+    return tables_for(nozzle_table_for, lambda fluid: OPERATING_POINTS[fluid.name])
 
 
 def random_upstream(envelope, count, rng):
