@@ -172,8 +172,10 @@ def ship_kernels(staging: Path, private: str) -> str:
         for root, arguments in ((compiled, []), (loaded, ["--into", str(bundle / SHIPPED_FOLDER)])):
             if root == loaded:      # like a machine whose cache has the kernels and nothing else (property tables)
                 loaded.mkdir()
-                shutil.move(cache_folder(bundle, stamp["sources"], compiled),
-                            cache_folder(bundle, stamp["sources"], loaded))
+                source, target = (cache_folder(bundle, private, stamp["sources"], folder)
+                                  for folder in (compiled, loaded))
+                target.parent.mkdir(parents=True)
+                shutil.move(source, target)
             done = subprocess.run(command + arguments, cwd=temporary, capture_output=True, text=True,
                                   env={**env, CACHE_ENVIRONMENT_VARIABLE: str(root)})
             if done.returncode != 0:

@@ -73,7 +73,7 @@ def ship(into: Path) -> None:
     """Copy the files of the kernels loaded from the cache into `into` and write the stamp (see the module
     docstring)."""
     digest = compile_cache.source_hash(PROJECT_DIR)
-    folder = compile_cache.cache_folder(PROJECT_DIR, digest)
+    folder = compile_cache.cache_folder(PROJECT_DIR, __package__.split(".")[0], digest)
     loaded = [kernel for kernel in bundle_kernels() if kernel.stats.cache_hits]
     if not loaded:
         raise RuntimeError(f"no kernel of {__package__.split('.')[0]} was loaded from the cache {folder}")

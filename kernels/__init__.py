@@ -5,4 +5,4 @@ from pathlib import Path
 
 from .compile_cache import install as _install_compile_cache
 
-_install_compile_cache(Path(__file__).parent)       # before any kernel is defined (kernels.kernel.copy_values)
+_install_compile_cache(Path(__file__).parent, __name__)       # before any kernel is defined (kernels.kernel.copy_values)

@@ -6,9 +6,13 @@ own file. Two failures follow for this project: a kernel compiled against an old
 (an index layout, a contact law) is reused after that module changed; and code unpacked into a new temporary
 folder on every run, as fmpy does with an FMU, never finds its cache and compiles again (about 10 s).
 
-`install(package_dir)` registers a locator for the functions defined under `package_dir` whose cache folder is
-`<cache root>/<hash of all the project's sources>/<package>/`: any change of any source file gives a new folder,
-and identical sources find the same folder wherever they are unpacked. The cache root is the environment
+`install(package_dir, module_name)` registers a locator for the functions defined under `package_dir` whose cache
+folder is `<cache root>/<hash of all the project's sources>/<import root>/<package>/`: any change of any source file
+gives a new folder, and identical sources find the same folder wherever they are unpacked. The import root is the
+top-level package the sources are imported as (`rotary_vane` for the library, the FMU's private name for the copy
+bundled in an FMU): a compiled kernel refers to the modules it calls by their import names, so a kernel compiled by
+an FMU cannot be loaded by the library, nor the reverse, even when their sources are identical (loading one raised
+ModuleNotFoundError for the FMU's private package in a library process sharing the cache). The cache root is the environment
 variable ROTARY_VANE_CACHE_DIR, else `$XDG_CACHE_HOME/rotary-vane-compressor/numba` (default `~/.cache/...`).
 This module lives in the lowest layer, kernels/, because every package of the project uses it.
 
@@ -69,10 +73,10 @@ def cache_root() -> Path:
     return Path(base) / "rotary-vane-compressor" / "numba"
 
 
-def cache_folder(project_dir: Path, digest: str | None = None, root: Path | None = None) -> Path:
-    """The cache folder of the sources in `project_dir` (`digest`: their source_hash, if known) under `root`
-    (default: cache_root())."""
-    return (root or cache_root()) / (digest or source_hash(project_dir))[:20]
+def cache_folder(project_dir: Path, import_root: str, digest: str | None = None, root: Path | None = None) -> Path:
+    """The cache folder of the sources in `project_dir`, imported as the top-level package `import_root`
+    (`digest`: their source_hash, if known), under `root` (default: cache_root())."""
+    return (root or cache_root()) / (digest or source_hash(project_dir))[:20] / import_root
 
 
 def portable_cpu(triple: str) -> tuple[str, tuple[str, ...]]:
@@ -215,14 +219,14 @@ class KernelCache(caching.FunctionCache):
                       if path.name == f"{base}.nbi" or (path.name.startswith(f"{base}.") and path.suffix == ".nbc"))
 
 
-def install(package_dir: str | Path) -> None:
-    """Cache the kernels defined under `package_dir` by source content, reading the kernels shipped with them first
-    if they can be used here (idempotent)."""
+def install(package_dir: str | Path, module_name: str) -> None:
+    """Cache the kernels defined under `package_dir` (the package imported as `module_name`) by source content and
+    import root, reading the kernels shipped with them first if they can be used here (idempotent)."""
     global _refusal
     package_dir = Path(os.path.realpath(package_dir))
     digest = source_hash(package_dir.parent)
-    ProjectSourceLocator.package_caches[str(package_dir)] = str(cache_folder(package_dir.parent, digest)
-                                                                / package_dir.name)
+    ProjectSourceLocator.package_caches[str(package_dir)] = str(
+        cache_folder(package_dir.parent, module_name.split(".")[0], digest) / package_dir.name)
     target, _refusal = shipped_kernels(package_dir.parent, digest)
     if target is not None:
         ProjectSourceLocator.package_shipped[str(package_dir)] = ShippedKernels(

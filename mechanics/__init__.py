@@ -3,7 +3,7 @@ from pathlib import Path
 
 from ..kernels.compile_cache import install as _install_compile_cache
 
-_install_compile_cache(Path(__file__).parent)       # before any kernel is defined
+_install_compile_cache(Path(__file__).parent, __name__)       # before any kernel is defined
 
 from .errors import ContactLawWarning, IntegrationError  # noqa: E402
 from .parameters import REFERENCE_NUMERICS, CompressorParameters, declarations

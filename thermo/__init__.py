@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..kernels.compile_cache import install as _install_compile_cache
 
-_install_compile_cache(Path(__file__).parent)       # before any kernel is defined
+_install_compile_cache(Path(__file__).parent, __name__)       # before any kernel is defined
 
 from .nozzle import isentropic_nozzle_mass_flow  # noqa: E402
 from .pressure_tables import ideal_gas_pressure_table, polytropic_pressure_table  # noqa: E402

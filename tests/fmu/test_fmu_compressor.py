@@ -574,6 +574,18 @@ def test_fresh_process_loads_the_compiled_kernels_from_the_cache(tmp_path):
     assert {k: v for k, v in after.items() if compiled.get(k) != v} == {}, "the second process rewrote cache files"
     for folder in (user_cache, numba_cache):      # ROTARY_VANE_CACHE_DIR wins over numba's own setting
         assert not folder.exists() or not any(folder.rglob("*")), f"{folder.name} was written"
+    # the library, from the same sources, in the same cache: the FMU's kernels name its private package, which this
+    # process cannot import, so the library must neither read them nor be refused by them
+    library = subprocess.run([sys.executable, "-c", LIBRARY_STEP], env=env, capture_output=True, text=True,
+                             timeout=H.DEFAULT_TIMEOUT, cwd=tmp_path)
+    assert library.returncode == 0, library.stderr[-3000:]
+    assert set(H.cache_listing(cache)) > set(after), "the library found its kernels among the FMU's"
+
+
+LIBRARY_STEP = """
+from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+Simulation(CompressorParameters(), constant_speed(1500.0), keep_history=False).advance(1e-3)
+"""
 
 
 # 7. errors ------------------------------------------------------------------------------------------------------
