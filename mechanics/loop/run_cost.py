@@ -20,7 +20,8 @@ from .machine import machine_from_parameters
 from ..parameters import CompressorParameters
 
 # measured cost of one accepted step at the defaults, 1500 rpm, 0.1 s (s): per (pressure model is real gas, method)
-STEP_SECONDS = {(False, "dopri5"): 4.4e-6, (False, "abm4"): 2.2e-6, (True, "dopri5"): 12.4e-6, (True, "abm4"): 3.9e-6}
+STEP_SECONDS = {(False, "dopri5"): 4.4e-6, (False, "abm4"): 2.2e-6, (True, "dopri5"): 12.4e-6, (True, "abm4"): 3.9e-6,
+                (False, "ark548"): 5.9e-6, (True, "ark548"): 20e-6}
 DEFAULT_RTOL = 3e-5
 CONTACT_STEPS_PER_PERIOD = 10.0
 
