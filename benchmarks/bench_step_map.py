@@ -3,7 +3,7 @@ held shaft speed, from restored states, as an iterating co-simulation master see
 nothing (tests/mechanics/test_step_map.py checks a cheap version).
 
 Run from anywhere:  python benchmarks/bench_step_map.py [--states N] [--speeds N] [--models real_gas ...]
-                    [--rtol R] [--fmu RotaryVaneCompressor.fmu]
+                    [--rtol R] [--integrator dopri5|ark548] [--fmu RotaryVaneCompressor.fmu]
 
 A run at c = 0.05 mm, 1500 rpm, rotor_inertia = 0 (the defaults otherwise) settles for 0.1 s; then from N
 consecutive states 1 ms apart (each saved with `get_state`), one 1 ms advance is made for each of the speeds
@@ -98,15 +98,16 @@ def main() -> None:
     parser.add_argument("--speeds", type=int, default=201)
     parser.add_argument("--models", nargs="+", default=["ideal_gas_table", "real_gas"])
     parser.add_argument("--rtol", type=float, nargs="+", default=[3e-5, 1e-8])
+    parser.add_argument("--integrator", default="dopri5", help="the library's method (not with --fmu)")
     parser.add_argument("--fmu", help="measure through this RotaryVaneCompressor.fmu with fmpy instead")
     args = parser.parse_args()
-    heading(f"One-step map{' through fmpy' if args.fmu else ''}: {args.states} states x {args.speeds} speeds in +-0.01 rpm, c = 0.05 mm, 1500 rpm, "
+    heading(f"One-step map{' through fmpy' if args.fmu else ''} ({args.integrator}): {args.states} states x {args.speeds} speeds in +-0.01 rpm, c = 0.05 mm, 1500 rpm, "
             f"rotor_inertia = 0")
     rows = []
     for model in args.models:
         for rtol in args.rtol:
             params = CompressorParameters(stator_clearance=0.05e-3, rotor_inertia=0.0, pressure_model=model,
-                                          relative_tolerance=rtol)
+                                          relative_tolerance=rtol, integrator=args.integrator)
             start = time.perf_counter()
             torques = (fmu_step_map(args.fmu, model, rtol, args.states, args.speeds) if args.fmu else
                        step_map(params, args.states, args.speeds))

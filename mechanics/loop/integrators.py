@@ -83,13 +83,15 @@ W_STAGE, W_Y_NEW, W_Y_PREDICTED, W_F_PREDICTED = range(STAGES, STAGES + 4)
 WORKSPACE_ROWS = STAGES + 4
 # ARK5(4)8L[2]SA: the workspace row of each stage's derivative (the 8th in ABM4's predictor row), the row of the chamber
 # rates and Newton updates of an implicit stage (ABM4's predicted derivative); its matrices live in ABM4's history
-# rows: the LU factors of I - h gamma J and their pivots, the chamber-rate Jacobian J (its base rates after it), the
-# known part of the implicit stage
+# rows: the LU factors of I - h gamma J and their pivots, the chamber-rate Jacobian J (its base rates and whether it
+# is current after it), the known part of the implicit stage
 ARK_ROWS = np.array([0, 1, 2, 3, 4, 5, 6, W_Y_PREDICTED])
 W_NEWTON = W_F_PREDICTED
 H_LU, H_JACOBIAN, H_KNOWN = range(3)
+JACOBIAN_CURRENT = CHAMBER_STATES * (CHAMBER_STATES + 1)   # in row H_JACOBIAN: 1 while J may be reused, else 0
 NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its update is below this x the tolerance
 NEWTON_ITERATION_LIMIT = 6
+NEWTON_SLOW = 3              # a stage that needs this many iterations has J formed again for the next step
 NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration did not converge (shrinks it 5x)
 
 
@@ -453,6 +455,7 @@ def _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters):
         for q in range(CHAMBER_STATES):
             history[H_JACOBIAN, CHAMBER_STATES * q + p] = (rates[GAS_BLOCK + q] - history[H_JACOBIAN, base + q]) / delta
     counters[JACOBIANS] += 1
+    history[H_JACOBIAN, JACOBIAN_CURRENT] = 1.0
     return failure
 
 
@@ -509,12 +512,15 @@ def _implicit_chamber_stage(t, stage, h_gamma, ctx, memory, history, work_rows, 
     """Solve Y_g = z_g + h gamma f_g(Y) for the chamber states g of the stage point `stage` (its other states set,
     its chamber states the predictor; z_g in history row H_KNOWN) by simplified Newton with the factored
     M = I - h gamma J, at the chamber geometry of the stage's pose, until the update is below NEWTON_TOLERANCE
-    times the tolerance (RMS). Returns (failure status, converged)."""
+    times the tolerance (RMS). Returns (failure status, converged); a slow convergence (NEWTON_SLOW iterations) marks
+    J for forming again at the next step."""
     m = ctx.machine[0]
     c = ctx.chambers[0]
     inputs = chamber_inputs_at(t, stage, ctx, memory)
     update = work_rows[W_NEWTON]
-    for _ in range(NEWTON_ITERATION_LIMIT):
+    for iteration in range(1, NEWTON_ITERATION_LIMIT + 1):
+        if iteration == NEWTON_SLOW:
+            history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
         failure = chamber_rates_at(stage, inputs, ctx, update)[0]
         counters[NEWTON_ITERATIONS] += 1
         if failure != 0:
@@ -552,7 +558,8 @@ def ark548_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
     every state but the chamber states (T_L, m_L, T_T, m_T) by the explicit tableau, the chamber states by the
     ESDIRK tableau, with the same nodes and weights. The stage's vane states are explicit, so each implicit stage
     is a 4-unknown solve at a known pose (_implicit_chamber_stage, predictor z + h gamma k_(i-1)); the Jacobian of
-    the chamber rates is formed at (t, y) and M = I - h gamma J factored once per attempt. The cumulative gas states
+    the chamber rates is formed at (t, y) when it is not current (the first step, after a Newton failure, a slow
+    convergence or a valley crossing) and M = I - h gamma J factored once per attempt. The cumulative gas states
     feed back on nothing: their stage values are not read. Under the pressure tables (no chamber states) it is
     the explicit tableau alone. The new state's derivative and output row take one more right-hand side (the
     explicit tableau is not first-same-as-last). Returns (failure status, RMS scaled error of the embedded
@@ -564,8 +571,10 @@ def ark548_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
     h_gamma = h * ARK_GAMMA
     failure = 0
     if implicit:
-        failure = _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters)
+        if history[H_JACOBIAN, JACOBIAN_CURRENT] == 0.0:
+            failure = _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters)
         if failure != 0 or not _factor_iteration_matrix(history, h_gamma):
+            history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
             return failure, NEWTON_FAILED
     stage = work_rows[W_STAGE]
     for i in range(1, ARK_STAGES):
@@ -581,6 +590,7 @@ def ark548_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
             status, converged = _implicit_chamber_stage(t + ARK_C[i] * h, stage, h_gamma, ctx, memory, history,
                                                         work_rows, counters)
             if status != 0 or not converged:
+                history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
                 counters[EVALUATIONS] += i - 1
                 return status, NEWTON_FAILED
         failure |= evaluate(t + ARK_C[i] * h, stage, ctx, memory, work_rows[ARK_ROWS[i]], out, False)
@@ -606,6 +616,9 @@ def ark548_after_rejection(control, step, err, finite):
 
 @kernel
 def ark548_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    """DOPRI5's step control; the chambers switched at a valley: J is formed again."""
+    if event == VALLEY_EVENT and n > GAS_BLOCK:
+        history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
     dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
 
 
