@@ -89,7 +89,8 @@ ARK_ROWS = np.array([0, 1, 2, 3, 4, 5, 6, W_Y_PREDICTED])
 W_NEWTON = W_F_PREDICTED
 H_LU, H_JACOBIAN, H_KNOWN = range(3)
 JACOBIAN_CURRENT = CHAMBER_STATES * (CHAMBER_STATES + 1)   # in row H_JACOBIAN: 1 while J may be reused, else 0
-NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its update is below this x the tolerance
+NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its remaining error is below this x the
+NEWTON_RATE = CHAMBER_STATES     # tolerance; in row H_KNOWN: the last eta = theta/(1 - theta) (0: none yet)
 NEWTON_ITERATION_LIMIT = 6
 NEWTON_SLOW = 3              # a stage that needs this many iterations has J formed again for the next step
 NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration did not converge (shrinks it 5x)
@@ -511,13 +512,17 @@ def _solve_iteration_matrix(history, values, start):
 def _implicit_chamber_stage(t, stage, h_gamma, ctx, memory, history, work_rows, counters):
     """Solve Y_g = z_g + h gamma f_g(Y) for the chamber states g of the stage point `stage` (its other states set,
     its chamber states the predictor; z_g in history row H_KNOWN) by simplified Newton with the factored
-    M = I - h gamma J, at the chamber geometry of the stage's pose, until the update is below NEWTON_TOLERANCE
-    times the tolerance (RMS). Returns (failure status, converged); a slow convergence (NEWTON_SLOW iterations) marks
-    J for forming again at the next step."""
+    M = I - h gamma J, at the chamber geometry of the stage's pose, until the remaining error eta |update| (RMS,
+    scaled by the tolerance; eta = theta/(1 - theta) from the contraction theta of the last two updates, or of the
+    previous stage's iteration as eta_old^0.8 for the first update, Hairer-Wanner IV.8) is below NEWTON_TOLERANCE.
+    Returns (failure status, converged); a divergence (theta >= 1) does not converge, and a slow convergence
+    (NEWTON_SLOW iterations) marks J for forming again at the next step."""
     m = ctx.machine[0]
     c = ctx.chambers[0]
     inputs = chamber_inputs_at(t, stage, ctx, memory)
     update = work_rows[W_NEWTON]
+    eta = max(history[H_KNOWN, NEWTON_RATE] if history[H_KNOWN, NEWTON_RATE] > 0.0 else 1.0, 1e-3) ** 0.8
+    previous = math.inf
     for iteration in range(1, NEWTON_ITERATION_LIMIT + 1):
         if iteration == NEWTON_SLOW:
             history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
@@ -534,10 +539,19 @@ def _implicit_chamber_stage(t, stage, h_gamma, ctx, memory, history, work_rows, 
             i = GAS_BLOCK + q
             stage[i] += update[i]
             squares += (update[i] / _tolerance(i, stage[i], m, c)) ** 2
-        if not math.isfinite(squares):
+        norm = math.sqrt(squares / CHAMBER_STATES)
+        if not math.isfinite(norm):
             return 0, False
-        if squares <= NEWTON_TOLERANCE * NEWTON_TOLERANCE * CHAMBER_STATES:
+        if iteration > 1:
+            theta = norm / previous
+            if theta >= 1.0:
+                history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
+                return 0, False
+            eta = theta / (1.0 - theta)
+        if eta * norm <= NEWTON_TOLERANCE:
+            history[H_KNOWN, NEWTON_RATE] = eta
             return 0, True
+        previous = norm
     return 0, False
 
 
