@@ -93,7 +93,7 @@ NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its
 NEWTON_RATE = CHAMBER_STATES     # tolerance; in row H_KNOWN: the last eta = theta/(1 - theta) (0: none yet)
 NEWTON_ITERATION_LIMIT = 6
 NEWTON_SLOW = 3              # a stage that needs this many iterations has J formed again for the next step
-NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration did not converge (shrinks it 5x)
+NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration did not converge (shrinks it 3.6x)
 
 
 @kernel
