@@ -456,6 +456,13 @@ def _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters):
         for q in range(CHAMBER_STATES):
             history[H_JACOBIAN, CHAMBER_STATES * q + p] = (rates[GAS_BLOCK + q] - history[H_JACOBIAN, base + q]) / delta
     counters[JACOBIANS] += 1
+    finite = True
+    for k in range(JACOBIAN_CURRENT):
+        finite = finite and math.isfinite(history[H_JACOBIAN, k])
+    if failure != 0 or not finite:
+        for k in range(JACOBIAN_CURRENT + 1):    # the history stays finite (a saved FMU state is checked for it)
+            history[H_JACOBIAN, k] = 0.0
+        return failure if failure != 0 else GAS_STATE_INVALID
     history[H_JACOBIAN, JACOBIAN_CURRENT] = 1.0
     return failure
 
