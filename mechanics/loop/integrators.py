@@ -89,8 +89,9 @@ ARK_ROWS = np.array([0, 1, 2, 3, 4, 5, 6, W_Y_PREDICTED])
 W_NEWTON = W_F_PREDICTED
 H_LU, H_JACOBIAN, H_KNOWN = range(3)
 JACOBIAN_CURRENT = CHAMBER_STATES * (CHAMBER_STATES + 1)   # in row H_JACOBIAN: 1 while J may be reused, else 0
-NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its remaining error is below this x the
-NEWTON_RATE = CHAMBER_STATES     # tolerance; in row H_KNOWN: the last eta = theta/(1 - theta) (0: none yet)
+NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its predicted remaining error is below
+#                              this times the tolerance (RMS)
+NEWTON_RATE = CHAMBER_STATES  # in row H_KNOWN: the Newton iteration's last eta = theta/(1 - theta) (0: none yet)
 NEWTON_ITERATION_LIMIT = 6
 NEWTON_SLOW = 3              # a stage that needs this many iterations has J formed again for the next step
 NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration did not converge (shrinks it 3.6x)
