@@ -3,7 +3,7 @@ held shaft speed, from restored states, as an iterating co-simulation master see
 nothing (tests/mechanics/test_step_map.py checks a cheap version).
 
 Run from anywhere:  python benchmarks/bench_step_map.py [--states N] [--speeds N] [--models real_gas ...]
-                    [--rtol R] [--fmu RotaryVaneCompressor.fmu]
+                    [--rtol R] [--integrator dopri5|ark548] [--fmu RotaryVaneCompressor.fmu]
 
 A run at c = 0.05 mm, 1500 rpm, rotor_inertia = 0 (the defaults otherwise) settles for 0.1 s; then from N
 consecutive states 1 ms apart (each saved with `get_state`), one 1 ms advance is made for each of the speeds
@@ -54,7 +54,7 @@ def step_map(params: CompressorParameters, states: int, speeds: int, half_width_
 
 
 def fmu_step_map(fmu: str, model: str, rtol: float, states: int, speeds: int, half_width_rpm: float = 0.01,
-                 settle: float = SETTLE) -> np.ndarray:
+                 settle: float = SETTLE, integrator: str = "dopri5") -> np.ndarray:
     """step_map through fmpy's FMU2Slave: shaft_torque_mean of one STEP doStep, shape (states, speeds)."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
@@ -66,7 +66,7 @@ def fmu_step_map(fmu: str, model: str, rtol: float, states: int, speeds: int, ha
     slave.setupExperiment(startTime=0.0)
     slave.enterInitializationMode()
     slave.setReal([refs["stator_clearance"], refs["rotor_inertia"], refs["relative_tolerance"]], [0.05e-3, 0.0, rtol])
-    slave.setString([refs["pressure_model"]], [model])
+    slave.setString([refs["pressure_model"], refs["integrator"]], [model, integrator])
     slave.exitInitializationMode()
     speed, torque = refs["shaft_speed"], refs["shaft_torque_mean"]
     slave.setReal([speed], [SPEED_RPM])
@@ -98,17 +98,19 @@ def main() -> None:
     parser.add_argument("--speeds", type=int, default=201)
     parser.add_argument("--models", nargs="+", default=["ideal_gas_table", "real_gas"])
     parser.add_argument("--rtol", type=float, nargs="+", default=[3e-5, 1e-8])
+    parser.add_argument("--integrator", default="dopri5", help="the integration method")
     parser.add_argument("--fmu", help="measure through this RotaryVaneCompressor.fmu with fmpy instead")
     args = parser.parse_args()
-    heading(f"One-step map{' through fmpy' if args.fmu else ''}: {args.states} states x {args.speeds} speeds in +-0.01 rpm, c = 0.05 mm, 1500 rpm, "
+    heading(f"One-step map{' through fmpy' if args.fmu else ''} ({args.integrator}): {args.states} states x {args.speeds} speeds in +-0.01 rpm, c = 0.05 mm, 1500 rpm, "
             f"rotor_inertia = 0")
     rows = []
     for model in args.models:
         for rtol in args.rtol:
             params = CompressorParameters(stator_clearance=0.05e-3, rotor_inertia=0.0, pressure_model=model,
-                                          relative_tolerance=rtol)
+                                          relative_tolerance=rtol, integrator=args.integrator)
             start = time.perf_counter()
-            torques = (fmu_step_map(args.fmu, model, rtol, args.states, args.speeds) if args.fmu else
+            torques = (fmu_step_map(args.fmu, model, rtol, args.states, args.speeds, integrator=args.integrator)
+                       if args.fmu else
                        step_map(params, args.states, args.speeds))
             jumps = np.abs(np.diff(torques, axis=1))
             rows.append([model, f"{rtol:g}", f"{jumps.max():.2e}", f"{np.median(jumps):.2e}",

@@ -24,7 +24,7 @@ from .geometry.stator import check_stator_regularity
 
 # a choice is declared as a thermo.choices.Choices next to the kernel that branches on its code; these two are
 # read by the time loop through mechanics.loop.machine
-INTEGRATORS = Choices("dopri5", "abm4")
+INTEGRATORS = Choices("dopri5", "abm4", "ark548")
 PRESSURE_MODELS = Choices("polytropic", "ideal_gas_table", "real_gas")
 
 
@@ -119,7 +119,8 @@ class CompressorParameters:
     gas_constant: float = _number(81.5, "J/(kg.K)", 1.0, 5000.0, "specific gas constant R (Level 0.5)")
     # numerics (docs/model.md §8)
     integrator: str = _choice("dopri5", INTEGRATORS,
-                              "time integrator: adaptive Dormand-Prince 5(4) or the thesis's ABM4 PECE")
+                              "time integrator: adaptive Dormand-Prince 5(4), the thesis's ABM4 PECE, or the "
+                              "additive Runge-Kutta ARK5(4)8L[2]SA with the chamber states implicit")
     relative_tolerance: float = _number(3e-5, "1", 1e-10, 1e-3,
                                         "relative error tolerance rtol (docs/model.md §8.2: the default is the "
                                         "cheapest that keeps the per-revolution figures at their accuracy; the "

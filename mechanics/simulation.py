@@ -43,7 +43,7 @@ from .loop.windows import (ACC_LAW_EXCESS, MODE_KEYS, RECORD_ACCUMULATORS, RECOR
 
 GRID_CAPACITY = 8192            # steps one advance records for replay (longer advances are not replayed)
 KEPT_GRIDS = 4                  # the latest recorded grids kept for replay
-GRID_METHODS = ("dopri5",)      # the methods whose step may follow a given grid (ABM4's history is at one spacing)
+GRID_METHODS = ("dopri5", "ark548")   # the methods whose step may follow a given grid (ABM4's history is at one spacing)
 HISTORY_CHUNK = 4096            # output rows per call of the loop when the history is kept
 RECORD_CHUNK = 64               # lobe records per call of the loop
 LOG = logging.getLogger(__name__)

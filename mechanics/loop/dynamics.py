@@ -261,6 +261,18 @@ def chamber_inputs_at(t, y, ctx, memory):
 
 
 @kernel
+def chamber_rates_at(y, inputs, ctx, dydt):
+    """The chamber block's rates (into dydt from GAS_BLOCK) at the chamber geometry `inputs` of a pose
+    (thermo.chamber_model.chamber_rates); returns (0 or GAS_STATE_INVALID, FlowStatus, leading and trailing
+    FluidState). Needs no contact or gas load: the implicit chamber stages of mechanics.loop.integrators iterate it
+    at a fixed pose."""
+    flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, ctx.chambers[0], ctx.properties, ctx.nozzles, dydt,
+                                             ctx.flow_work[0])
+    status = GAS_STATE_INVALID if leading.status != 0 or trailing.status != 0 or flows.refused != 0 else 0
+    return status, flows, leading, trailing
+
+
+@kernel
 def evaluate(t, y, ctx, memory, dydt, out, report):
     """Right-hand side dy/dt at (t, y) and, if `report`, the output row (docs/model.md §8.1b); returns 0 or the
     kernel status code of an impossible pose or chamber state. Intermediate integrator stages pass report=False and
@@ -278,9 +290,9 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
         work = ctx.flow_work[0]
-        flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, dydt, work)
-        if leading.status != 0 or trailing.status != 0 or flows.refused != 0:
-            status = GAS_STATE_INVALID
+        gas_status, flows, leading, trailing = chamber_rates_at(y, inputs, ctx, dydt)
+        if gas_status != 0:
+            status = gas_status
         pressures = (leading.pressure, trailing.pressure, m.discharge_pressure)
     else:
         pressures = table_pressures(pose, memory, m, ctx.pressure_table)

@@ -18,24 +18,28 @@ import math
 import numpy as np
 
 from ...kernels.kernel import copy_values, kernel
-from ...thermo.chamber_model import gas_tolerance, switch_chambers
+from ...thermo.chamber_model import CHAMBER_STATES, gas_tolerance, switch_chambers
 from ...thermo.property_table import table_from_arrays
 from ...thermo.real_gas_nozzle import nozzle_table_from_arrays
 
 from ..geometry.chamber_geometry import SectorTable
-from .dynamics import KernelContext, chamber_inputs_at, evaluate
+from .ark548_tableau import ARK_B, ARK_C, ARK_E, ARK_EXPLICIT, ARK_GAMMA, ARK_IMPLICIT, ARK_STAGES
+from .dynamics import KernelContext, chamber_inputs_at, chamber_rates_at, evaluate
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
                      MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
                      RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_LIMIT, X, Y)
-from .machine import ABM4, REAL_GAS_MODEL
+from .machine import ABM4, ARK548, REAL_GAS_MODEL
 from .outputs import O
 from ..contact.regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
 from .speed import ramp_end_time, rotor_motion, time_of_angle
 from .windows import accumulate, close_window
 
 # counters shared with Python
-ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS, EVENT_RETRIES = range(7)
-COUNTER_SIZE = 7
+# (NEWTON_ITERATIONS: chamber-rate evaluations of the implicit stages' Newton iterations, JACOBIANS: finite-difference
+# Jacobians of the chamber rates, both of ark548)
+(ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS, EVENT_RETRIES, NEWTON_ITERATIONS,
+ JACOBIANS) = range(9)
+COUNTER_SIZE = 9
 # control values kept between advances
 CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
 CONTROL_SIZE = 4
@@ -77,6 +81,20 @@ RK4_B = np.array([1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0])
 STAGES = 7
 W_STAGE, W_Y_NEW, W_Y_PREDICTED, W_F_PREDICTED = range(STAGES, STAGES + 4)
 WORKSPACE_ROWS = STAGES + 4
+# ARK5(4)8L[2]SA: the workspace row of each stage's derivative (the 8th in ABM4's predictor row), the row of the chamber
+# rates and Newton updates of an implicit stage (ABM4's predicted derivative); its matrices live in ABM4's history
+# rows: the LU factors of I - h gamma J and their pivots, the chamber-rate Jacobian J (its base rates and whether it
+# is current after it), the known part of the implicit stage
+ARK_ROWS = np.array([0, 1, 2, 3, 4, 5, 6, W_Y_PREDICTED])
+W_NEWTON = W_F_PREDICTED
+H_LU, H_JACOBIAN, H_KNOWN = range(3)
+JACOBIAN_CURRENT = CHAMBER_STATES * (CHAMBER_STATES + 1)   # in row H_JACOBIAN: 1 while J may be reused, else 0
+NEWTON_TOLERANCE = 1e-2      # a stage's Newton iteration has converged when its predicted remaining error is below
+#                              this times the tolerance (RMS)
+NEWTON_RATE = CHAMBER_STATES  # in row H_KNOWN: the Newton iteration's last eta = theta/(1 - theta) (0: none yet)
+NEWTON_ITERATION_LIMIT = 6
+NEWTON_SLOW = 3              # a stage that needs this many iterations has J formed again for the next step
+NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration did not converge (shrinks it 3.6x)
 
 
 @kernel
@@ -415,10 +433,224 @@ def abm4_after_acceptance(control, step, err, event, restart, rejected_last, his
     control[CONTROL_SMALL_ERRORS] = small_errors
 
 
+@kernel
+def _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters):
+    """J_qp = d f_q/d y_p of the chamber rates in the chamber states (T_L, m_L, T_T, m_T) at (t, y), by forward
+    differences at the chamber geometry of the pose in y (history row H_JACOBIAN, row-major, the base rates after
+    it); returns the failure status (docs/model.md §8.2, ark548)."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
+    inputs = chamber_inputs_at(t, y, ctx, memory)
+    perturbed = work_rows[W_STAGE]
+    rates = work_rows[W_NEWTON]
+    base = CHAMBER_STATES * CHAMBER_STATES
+    copy_values(perturbed, 0, y, 0, y.size)
+    failure = chamber_rates_at(perturbed, inputs, ctx, rates)[0]
+    for q in range(CHAMBER_STATES):
+        history[H_JACOBIAN, base + q] = rates[GAS_BLOCK + q]
+    for p in range(CHAMBER_STATES):
+        i = GAS_BLOCK + p
+        delta = math.sqrt(np.finfo(np.float64).eps) * max(abs(y[i]), 1e3 * _tolerance(i, 0.0, m, c))
+        perturbed[i] = y[i] + delta
+        failure |= chamber_rates_at(perturbed, inputs, ctx, rates)[0]
+        perturbed[i] = y[i]
+        for q in range(CHAMBER_STATES):
+            history[H_JACOBIAN, CHAMBER_STATES * q + p] = (rates[GAS_BLOCK + q] - history[H_JACOBIAN, base + q]) / delta
+    counters[JACOBIANS] += 1
+    finite = True
+    for k in range(JACOBIAN_CURRENT):
+        finite = finite and math.isfinite(history[H_JACOBIAN, k])
+    if failure != 0 or not finite:
+        for k in range(JACOBIAN_CURRENT + 1):    # the history stays finite (a saved FMU state is checked for it)
+            history[H_JACOBIAN, k] = 0.0
+        return failure if failure != 0 else GAS_STATE_INVALID
+    history[H_JACOBIAN, JACOBIAN_CURRENT] = 1.0
+    return failure
+
+
+@kernel
+def _factor_iteration_matrix(history, h_gamma):
+    """LU with partial pivoting of M = I - h gamma J (J in history row H_JACOBIAN) into history row H_LU, the
+    pivots after the factors; False if M is singular."""
+    p = CHAMBER_STATES
+    for row in range(p):
+        for col in range(p):
+            history[H_LU, p * row + col] = (1.0 if row == col else 0.0) - h_gamma * history[H_JACOBIAN, p * row + col]
+    for col in range(p):
+        pivot = col
+        for row in range(col + 1, p):
+            if abs(history[H_LU, p * row + col]) > abs(history[H_LU, p * pivot + col]):
+                pivot = row
+        history[H_LU, p * p + col] = pivot
+        if history[H_LU, p * pivot + col] == 0.0 or not math.isfinite(history[H_LU, p * pivot + col]):
+            return False
+        if pivot != col:
+            for k in range(p):
+                swap = history[H_LU, p * col + k]
+                history[H_LU, p * col + k] = history[H_LU, p * pivot + k]
+                history[H_LU, p * pivot + k] = swap
+        for row in range(col + 1, p):
+            factor = history[H_LU, p * row + col] / history[H_LU, p * col + col]
+            history[H_LU, p * row + col] = factor
+            for k in range(col + 1, p):
+                history[H_LU, p * row + k] -= factor * history[H_LU, p * col + k]
+    return True
+
+
+@kernel
+def _solve_iteration_matrix(history, values, start):
+    """values[start:start + 4] = M^-1 values[start:start + 4] with the LU factors of _factor_iteration_matrix."""
+    p = CHAMBER_STATES
+    for col in range(p):
+        pivot = int(history[H_LU, p * p + col])
+        if pivot != col:
+            swap = values[start + col]
+            values[start + col] = values[start + pivot]
+            values[start + pivot] = swap
+    for col in range(p):
+        for row in range(col + 1, p):
+            values[start + row] -= history[H_LU, p * row + col] * values[start + col]
+    for col in range(p - 1, -1, -1):
+        for k in range(col + 1, p):
+            values[start + col] -= history[H_LU, p * col + k] * values[start + k]
+        values[start + col] /= history[H_LU, p * col + col]
+
+
+@kernel
+def _implicit_chamber_stage(t, stage, h_gamma, ctx, memory, history, work_rows, counters):
+    """Solve Y_g = z_g + h gamma f_g(Y) for the chamber states g of the stage point `stage` (its other states set,
+    its chamber states the predictor; z_g in history row H_KNOWN) by simplified Newton with the factored
+    M = I - h gamma J, at the chamber geometry of the stage's pose, until the remaining error eta |update| (RMS,
+    scaled by the tolerance; eta = theta/(1 - theta) from the contraction theta of the last two updates, or of the
+    previous stage's iteration as eta_old^0.8 for the first update, Hairer-Wanner IV.8) is below NEWTON_TOLERANCE.
+    Returns (failure status, converged); a divergence (theta >= 1) does not converge, and a slow convergence
+    (NEWTON_SLOW iterations) marks J for forming again at the next step."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
+    inputs = chamber_inputs_at(t, stage, ctx, memory)
+    update = work_rows[W_NEWTON]
+    eta = max(history[H_KNOWN, NEWTON_RATE] if history[H_KNOWN, NEWTON_RATE] > 0.0 else 1.0, 1e-3) ** 0.8
+    previous = math.inf
+    for iteration in range(1, NEWTON_ITERATION_LIMIT + 1):
+        if iteration == NEWTON_SLOW:
+            history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
+        failure = chamber_rates_at(stage, inputs, ctx, update)[0]
+        counters[NEWTON_ITERATIONS] += 1
+        if failure != 0:
+            return failure, False
+        for q in range(CHAMBER_STATES):
+            i = GAS_BLOCK + q
+            update[i] = history[H_KNOWN, q] + h_gamma * update[i] - stage[i]
+        _solve_iteration_matrix(history, update, GAS_BLOCK)
+        squares = 0.0
+        for q in range(CHAMBER_STATES):
+            i = GAS_BLOCK + q
+            stage[i] += update[i]
+            squares += (update[i] / _tolerance(i, stage[i], m, c)) ** 2
+        norm = math.sqrt(squares / CHAMBER_STATES)
+        if not math.isfinite(norm):
+            return 0, False
+        if iteration > 1:
+            theta = norm / previous
+            if theta >= 1.0:
+                history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
+                return 0, False
+            eta = theta / (1.0 - theta)
+        if eta * norm <= NEWTON_TOLERANCE:
+            history[H_KNOWN, NEWTON_RATE] = eta
+            return 0, True
+        previous = norm
+    return 0, False
+
+
+@kernel
+def ark548_begin(control, history, work, n):
+    """The step control is DOPRI5's."""
+    dopri5_begin(control, history, work, n)
+
+
+@kernel
+def ark548_bounded_step(h, m):
+    return dopri5_bounded_step(h, m)
+
+
+@kernel
+def ark548_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
+    """One step of the additive Runge-Kutta pair ARK5(4)8L[2]SA (docs/model.md §8.2) from (t, y), k_1 = work[0]:
+    every state but the chamber states (T_L, m_L, T_T, m_T) by the explicit tableau, the chamber states by the
+    ESDIRK tableau, with the same nodes and weights. The stage's vane states are explicit, so each implicit stage
+    is a 4-unknown solve at a known pose (_implicit_chamber_stage, predictor z + h gamma k_(i-1)); the Jacobian of
+    the chamber rates is formed at (t, y) when it is not current (the first step, after a Newton failure, a slow
+    convergence or a valley crossing) and M = I - h gamma J factored once per attempt. The cumulative gas states
+    feed back on nothing: their stage values are not read. Under the pressure tables (no chamber states) it is
+    the explicit tableau alone. The new state's derivative and output row take one more right-hand side (the
+    explicit tableau is not first-same-as-last). Returns (failure status, RMS scaled error of the embedded
+    4th-order solution; NEWTON_FAILED if a stage did not converge)."""
+    m = ctx.machine[0]
+    c = ctx.chambers[0]
+    n = y.size
+    implicit = n > GAS_BLOCK
+    h_gamma = h * ARK_GAMMA
+    failure = 0
+    if implicit:
+        if history[H_JACOBIAN, JACOBIAN_CURRENT] == 0.0:
+            failure = _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters)
+        if failure != 0 or not _factor_iteration_matrix(history, h_gamma):
+            history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
+            return failure, NEWTON_FAILED
+    stage = work_rows[W_STAGE]
+    for i in range(1, ARK_STAGES):
+        for k in range(n):
+            total = 0.0
+            for j in range(i):
+                total += (ARK_EXPLICIT[i, j] if k < GAS_BLOCK else ARK_IMPLICIT[i, j]) * work[ARK_ROWS[j], k]
+            stage[k] = y[k] + h * total
+        if implicit:
+            for q in range(CHAMBER_STATES):
+                history[H_KNOWN, q] = stage[GAS_BLOCK + q]
+                stage[GAS_BLOCK + q] += h_gamma * work[ARK_ROWS[i - 1], GAS_BLOCK + q]
+            status, converged = _implicit_chamber_stage(t + ARK_C[i] * h, stage, h_gamma, ctx, memory, history,
+                                                        work_rows, counters)
+            if status != 0 or not converged:
+                history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
+                counters[EVALUATIONS] += i - 1
+                return status, NEWTON_FAILED
+        failure |= evaluate(t + ARK_C[i] * h, stage, ctx, memory, work_rows[ARK_ROWS[i]], out, False)
+    y_new = work_rows[W_Y_NEW]
+    squares = 0.0
+    for k in range(n):
+        increment = 0.0
+        error = 0.0
+        for j in range(ARK_STAGES):
+            increment += ARK_B[j] * work[ARK_ROWS[j], k]
+            error += ARK_E[j] * work[ARK_ROWS[j], k]
+        y_new[k] = y[k] + h * increment
+        squares += (h * error / _tolerance(k, max(abs(y[k]), abs(y_new[k])), m, c)) ** 2
+    failure |= evaluate(t + h, y_new, ctx, memory, work_rows[STAGES - 1], out, True)
+    counters[EVALUATIONS] += ARK_STAGES
+    return failure, math.sqrt(squares / n)
+
+
+@kernel
+def ark548_after_rejection(control, step, err, finite):
+    return dopri5_after_rejection(control, step, err, finite)
+
+
+@kernel
+def ark548_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
+    """DOPRI5's step control; the chambers switched at a valley: J is formed again."""
+    if event == VALLEY_EVENT and n > GAS_BLOCK:
+        history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
+    dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+
+
+
 @kernel(inline=True)
 def method_begin(code, control, history, work, n):
     if code == ABM4:
         abm4_begin(control, history, work, n)
+    elif code == ARK548:
+        ark548_begin(control, history, work, n)
     else:
         dopri5_begin(control, history, work, n)
 
@@ -427,6 +659,8 @@ def method_begin(code, control, history, work, n):
 def method_bounded_step(code, h, m):
     if code == ABM4:
         return abm4_bounded_step(h, m)
+    if code == ARK548:
+        return ark548_bounded_step(h, m)
     return dopri5_bounded_step(h, m)
 
 
@@ -434,6 +668,8 @@ def method_bounded_step(code, h, m):
 def method_attempt(code, t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters):
     if code == ABM4:
         return abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
+    if code == ARK548:
+        return ark548_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
     return dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows, out, counters)
 
 
@@ -441,6 +677,8 @@ def method_attempt(code, t, h, event, y, ctx, memory, control, history, work, wo
 def method_after_rejection(code, control, step, err, finite):
     if code == ABM4:
         return abm4_after_rejection(control, step, err, finite)
+    if code == ARK548:
+        return ark548_after_rejection(control, step, err, finite)
     return dopri5_after_rejection(control, step, err, finite)
 
 
@@ -448,6 +686,8 @@ def method_after_rejection(code, control, step, err, finite):
 def method_after_acceptance(code, control, step, err, event, restart, rejected_last, history, work, n, m, counters):
     if code == ABM4:
         abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+    elif code == ARK548:
+        ark548_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
     else:
         dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
 

@@ -139,4 +139,4 @@ def machine_from_parameters(p: CompressorParameters):
 
 
 REAL_GAS_MODEL = float(PRESSURE_MODELS.codes("real_gas")[0])
-DOPRI5, ABM4 = (float(code) for code in INTEGRATORS.codes("dopri5", "abm4"))
+DOPRI5, ABM4, ARK548 = (float(code) for code in INTEGRATORS.codes("dopri5", "abm4", "ark548"))

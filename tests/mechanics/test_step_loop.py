@@ -14,7 +14,7 @@ from rotary_vane.mechanics.loop import integrators
 from rotary_vane.mechanics.loop.machine import machine_from_parameters
 from rotary_vane.mechanics.loop.run_cost import revolution_cost
 
-METHODS = ("dopri5", "abm4")
+METHODS = ("dopri5", "abm4", "ark548")
 HOOKS = ("begin", "bounded_step", "attempt", "after_rejection", "after_acceptance")
 
 
