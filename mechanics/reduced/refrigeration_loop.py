@@ -251,6 +251,7 @@ MAX_SUBSTEP = 0.02                     # s: RK4 substep bound (docs/model.md §1
 OUTPUT_NAMES = ("condenser_temperature", "discharge_pressure", "condenser_quality", "evaporator_temperature",
                 "suction_pressure", "evaporator_quality", "suction_temperature", "suction_enthalpy",
                 "suction_quality", "valve_opening", "valve_mass_flow")
+HEAT_FLOW_NAMES = ("condenser_heat_flow", "evaporator_heat_flow")   # step means
 FAILURES = {
     CONDENSER_STATE_FAILED: "the condenser's state",
     EVAPORATOR_STATE_FAILED: "the evaporator's state",
@@ -292,7 +293,7 @@ class RefrigerationLoop:
         self.exchange = np.zeros(3)          # cumulative drawn mass, delivered mass, delivered enthalpy at the state
         self.drawn_rate = 0.0
         self.secondary_temperatures = (standstill_temperature, standstill_temperature)
-        self.outputs = self._outputs()
+        self.outputs = {**self._outputs(), **dict.fromkeys(HEAT_FLOW_NAMES, 0.0)}
 
     def _outputs(self) -> dict:
         values, status, table_status = loop_outputs(self.state, self.parameters, self.drawn_rate,
@@ -332,7 +333,10 @@ class RefrigerationLoop:
         except LoopFailure:
             self.state, self.guesses, self.exchange, self.drawn_rate, self.secondary_temperatures = saved
             raise
-        self.outputs = outputs
+        released = saved[0][CONDENSER_HEAT] - y[CONDENSER_HEAT]
+        taken = y[EVAPORATOR_HEAT] + y[SUCTION_LINE_HEAT] - saved[0][EVAPORATOR_HEAT] - saved[0][SUCTION_LINE_HEAT]
+        self.outputs = {**outputs, "condenser_heat_flow": float(released / step_size),
+                        "evaporator_heat_flow": float(taken / step_size)}
 
     @property
     def charge(self) -> float:
