@@ -1,0 +1,111 @@
+"""The refrigeration loop (mechanics/reduced/refrigeration_loop.py, docs/model.md §16): conservation over a run with a
+prescribed compressor exchange, the steady state against an independent steady cycle from CoolProp states, and
+the refusals (bad parameters by name, an emptied evaporator as a failed step with the state untouched).
+
+The steady reference solves the steady equations of docs/model.md §16 (condenser and evaporator energy balances,
+the thermostatic valve's law, the suction line) with CoolProp's saturated states and scipy, not with the loop's
+property table or integrator."""
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq, fsolve
+
+from rotary_vane.fmu_src.refrigeration_loop import PARAMETERS, LoopSlave, check_parameters
+from rotary_vane.fmu_src.slave import INITIALIZED
+
+MASS_FLOW = 0.01                 # kg/s, the prescribed compressor
+DISCHARGE_ENTHALPY = 440e3       # J/kg
+CONDENSER_SECONDARY, EVAPORATOR_SECONDARY = 313.15, 285.15   # K
+
+
+def started_slave(**values) -> LoopSlave:
+    slave = LoopSlave(instance_name="test")
+    for name, value in values.items():
+        setattr(slave, name, value)
+    slave.setup_experiment(0.0)
+    slave.enter_initialization_mode()
+    slave.exit_initialization_mode()
+    assert slave.phase == INITIALIZED, [entry.msg for entry in slave.log_queue]
+    return slave
+
+
+def run(slave, steps, step, mass_flow, enthalpy, drawn_fraction=1.0, record=None):
+    """Advance with a compressor delivering `mass_flow(t)` [kg/s] at `enthalpy(t)` [J/kg] and drawing
+    `drawn_fraction` of it (its inventory changes if that is not 1)."""
+    for k in range(steps):
+        t = k * step
+        if record is not None:
+            record["drawn_energy"] += mass_flow(t) * drawn_fraction * step * slave.model.outputs["suction_enthalpy"]
+        slave.drawn_mass += mass_flow(t) * drawn_fraction * step
+        slave.delivered_mass += mass_flow(t) * step
+        slave.delivered_enthalpy += mass_flow(t) * step * enthalpy(t)
+        assert slave.do_step(t, step), [entry.msg for entry in slave.log_queue]
+
+
+@pytest.fixture(scope="module")
+def balance_run():
+    slave = started_slave()
+    y0 = slave.model.state.copy()
+    record = dict(drawn_energy=0.0)
+    run(slave, 300, 0.2, lambda t: 0.01 * (1.0 + 0.3 * math.sin(t)), lambda t: 430e3 + 10e3 * math.cos(0.5 * t),
+        0.9, record)
+    return slave, y0, record
+
+
+def test_charge_changes_only_by_the_compressor_exchange(balance_run):
+    slave, y0, _ = balance_run
+    expected = y0[0] + y0[2] + slave.delivered_mass - slave.drawn_mass
+    assert slave.model.charge == pytest.approx(expected, rel=1e-9)
+    assert abs(slave.delivered_mass - slave.drawn_mass) > 1e-3        # the exchange did move the charge
+
+
+def test_energy_changes_only_by_the_exchange_and_the_heats(balance_run):
+    slave, y0, record = balance_run
+    y = slave.model.state
+    heats = y[4] + y[5] + y[6]                  # condenser, evaporator, suction line (cumulative)
+    expected = y0[1] + y0[3] + slave.delivered_enthalpy - record["drawn_energy"] + heats
+    assert y[1] + y[3] == pytest.approx(expected, rel=1e-9, abs=1e-9 * abs(y[1] + y[3]))
+
+
+def steady_cycle():
+    """Capacity [W] and COP of the steady loop with the default thermostatic valve, from CoolProp (module
+    docstring): T_c from the condenser balance with saturated liquid leaving, then (T_e, dry fraction d) from the
+    evaporator balance and the valve passing the prescribed flow at the superheat eps d (T_sec - T_e)."""
+    import CoolProp.CoolProp as CP
+    p = {name: meta["default"] for name, meta in PARAMETERS.items()}
+
+    def sat(quantity, temperature, quality):
+        return CP.PropsSI(quantity, "T", temperature, "Q", quality, "R134a")
+
+    condensing = brentq(lambda t: MASS_FLOW * (DISCHARGE_ENTHALPY - sat("H", t, 0))
+                        - p["condenser_ua"] * (t - CONDENSER_SECONDARY), CONDENSER_SECONDARY, 360.0)
+    liquid_enthalpy, liquid_density = sat("H", condensing, 0), sat("D", condensing, 0)
+    condenser_pressure = sat("P", condensing, 0)
+
+    def residuals(unknowns):
+        evaporating, dry = unknowns
+        dp = condenser_pressure - sat("P", evaporating, 1)
+        area = MASS_FLOW * (dp * dp + 1000.0 ** 2) ** 0.25 / (p["discharge_coefficient"] * math.sqrt(2 * liquid_density) * dp)
+        superheat = p["static_superheat"] + p["superheat_band"] * area / p["valve_area"]
+        return [superheat - p["suction_line_effectiveness"] * dry * (EVAPORATOR_SECONDARY - evaporating),
+                MASS_FLOW * (sat("H", evaporating, 1) - liquid_enthalpy)
+                - (1 - dry) * p["evaporator_ua"] * (EVAPORATOR_SECONDARY - evaporating)]
+
+    evaporating, dry = fsolve(residuals, [272.0, 0.5], xtol=1e-12)
+    superheat = p["suction_line_effectiveness"] * dry * (EVAPORATOR_SECONDARY - evaporating)
+    suction_enthalpy = CP.PropsSI("H", "P", sat("P", evaporating, 1), "T", evaporating + superheat, "R134a")
+    capacity = MASS_FLOW * (suction_enthalpy - liquid_enthalpy)
+    return capacity, capacity / (MASS_FLOW * (DISCHARGE_ENTHALPY - suction_enthalpy)), condenser_pressure
+
+
+def test_steady_state_matches_an_independent_steady_cycle():
+    slave = started_slave()
+    run(slave, 400, 0.5, lambda t: MASS_FLOW, lambda t: DISCHARGE_ENTHALPY)
+    capacity, cop, condenser_pressure = steady_cycle()
+    out = slave.model.outputs
+    loop_cop = out["evaporator_heat_flow"] / (MASS_FLOW * (DISCHARGE_ENTHALPY - out["suction_enthalpy"]))
+    print(f"capacity {out['evaporator_heat_flow']:.6g} W vs {capacity:.6g} W, COP {loop_cop:.6g} vs {cop:.6g}")
+    assert out["evaporator_heat_flow"] == pytest.approx(capacity, rel=1e-3)
+    assert loop_cop == pytest.approx(cop, rel=1e-3)
+    assert out["discharge_pressure"] == pytest.approx(condenser_pressure, rel=1e-3)
