@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from pythonfmu.enums import Fmi2Status
 from scipy.optimize import brentq, fsolve
 
 from rotary_vane.fmu_src.refrigeration_loop import PARAMETERS, LoopSlave, check_parameters
@@ -109,3 +110,30 @@ def test_steady_state_matches_an_independent_steady_cycle():
     assert out["evaporator_heat_flow"] == pytest.approx(capacity, rel=1e-3)
     assert loop_cop == pytest.approx(cop, rel=1e-3)
     assert out["discharge_pressure"] == pytest.approx(condenser_pressure, rel=1e-3)
+
+
+@pytest.mark.parametrize("name, value", [("condenser_ua", -1.0), ("valve_kind", "needle"), ("separation_fill", 0.0),
+                                         ("refrigerant_charge", math.nan), ("dryout_quality", 1.0)])
+def test_bad_parameters_are_refused_by_name(name, value):
+    values = {n: meta["default"] for n, meta in PARAMETERS.items()}
+    values[name] = value
+    with pytest.raises(ValueError, match=f"parameter '{name}'"):
+        check_parameters(values)
+
+
+def test_an_emptied_evaporator_discards_the_step_and_keeps_the_state():
+    slave = started_slave(valve_kind="fixed_orifice", valve_area=1e-10)   # the valve feeds almost nothing
+    saved = None
+    for k in range(2000):
+        saved = slave.model.state.copy()
+        slave.drawn_mass += 0.02 * 0.5
+        slave.delivered_mass += 0.02 * 0.5
+        slave.delivered_enthalpy += 0.02 * 0.5 * DISCHARGE_ENTHALPY
+        if not slave.do_step(k * 0.5, 0.5):
+            break
+    else:
+        pytest.fail("the evaporator never ran empty")
+    message = slave.log_queue[-1].msg
+    assert slave.log_queue[-1].status == Fmi2Status.discard
+    assert "evaporator ran empty" in message and f"t = {k * 0.5 + 0.5!r} s" in message, message
+    assert np.array_equal(slave.model.state, saved)
