@@ -17,39 +17,34 @@ from ..mechanics.reduced import refrigeration_loop as loop
 from ..thermo.fluid_envelope import SUCTION_QUALITY_MIN, fluid_tables_for
 
 from . import state_schema as schema
-from .motor import check_parameter
-from .slave import GuardedSlave, StepFailed
+from .declared_slave import DeclaredSlave, number
+from .slave import StepFailed
 from .variables import RealVariable, declared_parameter, output
 
 FLUID = "R134a"
 
 
-def _number(unit, default, minimum, maximum, description):
-    """A real parameter with its unit and closed range [minimum, maximum]."""
-    return dict(unit=unit, default=default, min=minimum, max=maximum, integer=False, description=description)
-
-
 PARAMETERS = {
-    "refrigerant_charge": _number("kg", 0.8, 1e-3, 100.0, "refrigerant (R134a) mass in the loop"),
-    "condenser_volume": _number("m3", 1.5e-3, 1e-6, 1.0, "internal volume of the condenser V_c"),
-    "evaporator_volume": _number("m3", 1.5e-3, 1e-6, 1.0, "internal volume of the evaporator V_e"),
-    "condenser_ua": _number("W/K", 300.0, 1e-3, 1e6, "condenser conductance UA_c to its secondary stream"),
-    "evaporator_ua": _number("W/K", 250.0, 1e-3, 1e6, "evaporator conductance UA_e to its secondary stream (of "
+    "refrigerant_charge": number("kg", 0.8, 1e-3, 100.0, "refrigerant (R134a) mass in the loop"),
+    "condenser_volume": number("m3", 1.5e-3, 1e-6, 1.0, "internal volume of the condenser V_c"),
+    "evaporator_volume": number("m3", 1.5e-3, 1e-6, 1.0, "internal volume of the evaporator V_e"),
+    "condenser_ua": number("W/K", 300.0, 1e-3, 1e6, "condenser conductance UA_c to its secondary stream"),
+    "evaporator_ua": number("W/K", 250.0, 1e-3, 1e6, "evaporator conductance UA_e to its secondary stream (of "
                                                      "its wetted part)"),
     "valve_kind": dict(unit="", default="thermostatic", choices=loop.VALVE_KINDS,
                        description="expansion valve: fixed orifice, or thermostatic (proportional in the superheat)"),
-    "valve_area": _number("m2", 1e-6, 1e-10, 1e-2, "orifice area A (thermostatic: fully open)"),
-    "discharge_coefficient": _number("1", 0.7, 0.01, 1.0, "orifice discharge coefficient C_d"),
-    "static_superheat": _number("K", 4.0, 0.0, 30.0, "thermostatic: superheat at which the valve starts to open"),
-    "superheat_band": _number("K", 6.0, 0.1, 50.0, "thermostatic: superheat rise from closed to fully open"),
-    "suction_line_effectiveness": _number("1", 0.6, 0.0, 1.0, "effectiveness of the evaporator's dry part heating "
+    "valve_area": number("m2", 1e-6, 1e-10, 1e-2, "orifice area A (thermostatic: fully open)"),
+    "discharge_coefficient": number("1", 0.7, 0.01, 1.0, "orifice discharge coefficient C_d"),
+    "static_superheat": number("K", 4.0, 0.0, 30.0, "thermostatic: superheat at which the valve starts to open"),
+    "superheat_band": number("K", 6.0, 0.1, 50.0, "thermostatic: superheat rise from closed to fully open"),
+    "suction_line_effectiveness": number("1", 0.6, 0.0, 1.0, "effectiveness of the evaporator's dry part heating "
                                                               "the suction vapour towards the secondary inlet "
                                                               "temperature"),
-    "separation_fill": _number("1", 0.2, 0.01, 1.0, "volume fraction of liquid (condenser) or vapour (evaporator) "
+    "separation_fill": number("1", 0.2, 0.01, 1.0, "volume fraction of liquid (condenser) or vapour (evaporator) "
                                                     "below which the outlet draws the mixture instead of one phase"),
-    "dryout_quality": _number("1", 0.7, 0.0, 0.99, "evaporator mean vapour quality above which part of its surface "
+    "dryout_quality": number("1", 0.7, 0.0, 0.99, "evaporator mean vapour quality above which part of its surface "
                                                    "is dry"),
-    "initial_temperature": _number("K", 298.15, 233.15, 333.15, "temperature of the loop at standstill (equal "
+    "initial_temperature": number("K", 298.15, 233.15, 333.15, "temperature of the loop at standstill (equal "
                                                                 "pressures) at the start time"),
 }
 VECTOR_ORDER = ("condenser_volume", "evaporator_volume", "condenser_ua", "evaporator_ua", "valve_kind", "valve_area",
@@ -101,35 +96,21 @@ MODEL_SCHEMA = schema.Record({
 })
 
 
-def check_parameters(values: dict) -> None:
-    """Each parameter in its range; ValueError naming the parameter otherwise."""
-    for name, meta in PARAMETERS.items():
-        check_parameter(name, values[name], meta)
-
-
 def parameter_vector(values: dict) -> np.ndarray:
     """The loop's parameter vector (mechanics.reduced.refrigeration_loop indices) of checked parameter values."""
     return np.array([float(loop.VALVE_KINDS.index(values[name])) if name == "valve_kind" else float(values[name])
                      for name in VECTOR_ORDER])
 
 
-def _check_built(tree) -> None:
-    """A saved loop that is built has valid parameters; one that is not has not run."""
-    model = tree["model"]
-    if not model["built"]:
-        if model["time"] != 0.0:
-            raise ValueError(f"the state is inconsistent: no loop is built, yet its time is {model['time']!r} s")
-        return
-    check_parameters(model["parameters"])
-
-
-class LoopSlave(GuardedSlave):
+class LoopSlave(DeclaredSlave):
     """Refrigeration loop (condenser, expansion valve, evaporator, suction line) around the compressor."""
 
     description = ("Lumped R134a vapour-compression loop: two-phase condenser and evaporator volumes, fixed or "
                    "thermostatic expansion valve, suction line; the compressor's cumulative mass and enthalpy "
                    "exchange in, suction state and discharge pressure out.")
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=60.0, step_size=0.1)
+    declared_parameters = PARAMETERS
+    state_schema = MODEL_SCHEMA
     example_start_values = {"refrigerant_charge": 0.8}
     documentation_note = ("Connect the compressor's drawn_mass, delivered_mass and delivered_enthalpy to the inputs "
                           "of the same names, and suction_pressure, suction_enthalpy and discharge_pressure to the "
@@ -157,12 +138,9 @@ class LoopSlave(GuardedSlave):
             return self.model.charge
         return self.model.outputs[name]
 
-    def _parameters(self) -> dict:
-        return {name: getattr(self, name) for name in PARAMETERS}
-
     def initialize(self):
-        check_parameters(self._parameters())
-        self.model = self._build_model(self._parameters())
+        self.check_parameters(self.parameter_values())
+        self.model = self._build_model(self.parameter_values())
         self.time = 0.0
 
     @staticmethod
@@ -195,26 +173,10 @@ class LoopSlave(GuardedSlave):
         self.time = end_time
 
     # state --------------------------------------------------------------------------------------------------
-    def changed_parameters(self):
-        return {name: getattr(self, name) for name, meta in PARAMETERS.items()
-                if getattr(self, name) != meta["default"]}
-
-    @classmethod
-    def model_schema(cls):
-        return MODEL_SCHEMA
-
-    @classmethod
-    def model_relations(cls):
-        return (_check_built,)
-
-    @classmethod
-    def model_time(cls, model):
-        return model["time"] if model["built"] else None
-
     def snapshot(self):
         model = self.model
         built = model is not None
-        return dict(parameters=self._parameters(), built=built, time=self.time,
+        return dict(parameters=self.parameter_values(), built=built, time=self.time,
                     state=[float(v) for v in model.state] if built else [0.0] * loop.STATE_COUNT,
                     guesses=[float(v) for v in model.guesses] if built else [0.0, 0.0],
                     exchange=[float(v) for v in model.exchange] if built else [0.0] * 3,
@@ -229,7 +191,7 @@ class LoopSlave(GuardedSlave):
         if set(parameters) != set(PARAMETERS):
             raise ValueError("the state is not this loop's")
         if state["built"]:
-            check_parameters(parameters)
+            self.check_parameters(parameters)
         for name, value in parameters.items():
             setattr(self, name, value)
         for name in INPUTS:

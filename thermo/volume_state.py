@@ -24,7 +24,7 @@ from .boundary_states import STATUS_NOT_CONVERGED
 from .property_table import STATUS_OK, table_quality, table_state
 from .saturation import LIQUID_ENTHALPY, LIQUID_VOLUME, VAPOUR_VOLUME, saturation_quantity
 
-NEWTON_ITERATIONS = 50
+NEWTON_ITERATIONS = 100
 TEMPERATURE_TOLERANCE = 1e-11         # relative step in T that ends the Newton solve
 
 
@@ -45,19 +45,28 @@ class VolumeState(NamedTuple):
 
 @kernel
 def volume_temperature(density, energy, guess, table):
-    """(T, status): Newton on u(T, rho) = energy [J/kg] at rho = density from T = guess (module docstring), the
-    step held to 10 % of T."""
+    """(T, status): u(T, rho) = energy [J/kg] at rho = density from T = guess (module docstring). u rises with T
+    (c_v > 0), so each residual's sign tightens a bracket; Newton steps (held to 10 % of T) that leave the bracket
+    are replaced by its midpoint: c_v jumps at the dew line, where plain Newton can cycle across the kink."""
     temperature = guess
+    low, high = 0.0, math.inf
     for _ in range(NEWTON_ITERATIONS):
         state = table_state(temperature, density, table)
         if state.status != STATUS_OK:
             return math.nan, state.status
         residual = state.enthalpy - state.pressure / density - energy
+        if residual > 0.0:
+            high = min(high, temperature)
+        else:
+            low = max(low, temperature)
         step = residual / state.heat_capacity_v
         step = max(-0.1 * temperature, min(0.1 * temperature, step))
-        temperature -= step
-        if abs(step) <= TEMPERATURE_TOLERANCE * temperature:
-            return temperature, STATUS_OK
+        target = temperature - step
+        if not low < target < high and high < math.inf and low > 0.0:
+            target = 0.5 * (low + high)
+        if abs(target - temperature) <= TEMPERATURE_TOLERANCE * temperature:
+            return target, STATUS_OK
+        temperature = target
     return math.nan, STATUS_NOT_CONVERGED
 
 

@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from ...kernels.kernel import kernel
-from ...thermo.boundary_states import gas_density, state_at_pressure_enthalpy
+from ...thermo.boundary_states import STATUS_NOT_CONVERGED, gas_density, state_at_pressure_enthalpy
 from ...thermo.property_table import STATUS_OK, table_from_arrays, table_state
 from ...thermo.volume_state import volume_state
 
@@ -270,6 +270,8 @@ def describe_failure(loop_status: int, table_status: int) -> str:
     text = FAILURES.get(int(loop_status), f"loop status {int(loop_status)}")
     if loop_status == EVAPORATOR_EMPTY:
         return text
+    if loop_status in (CONDENSER_STATE_FAILED, EVAPORATOR_STATE_FAILED) and table_status == STATUS_NOT_CONVERGED:
+        return f"{text} was not found: no temperature on the property table gives its internal energy"
     return f"{text} cannot be computed: {describe_boundary_status(table_status)}"
 
 

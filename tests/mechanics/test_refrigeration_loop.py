@@ -12,7 +12,7 @@ import pytest
 from pythonfmu.enums import Fmi2Status
 from scipy.optimize import brentq, fsolve
 
-from rotary_vane.fmu_src.refrigeration_loop import PARAMETERS, LoopSlave, check_parameters
+from rotary_vane.fmu_src.refrigeration_loop import PARAMETERS, LoopSlave
 from rotary_vane.fmu_src.slave import INITIALIZED
 
 MASS_FLOW = 0.01                 # kg/s, the prescribed compressor
@@ -118,7 +118,7 @@ def test_bad_parameters_are_refused_by_name(name, value):
     values = {n: meta["default"] for n, meta in PARAMETERS.items()}
     values[name] = value
     with pytest.raises(ValueError, match=f"parameter '{name}'"):
-        check_parameters(values)
+        LoopSlave.check_parameters(values)
 
 
 def test_an_emptied_evaporator_discards_the_step_and_keeps_the_state():
