@@ -119,6 +119,7 @@ class LoopSlave(DeclaredSlave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.model: loop.RefrigerationLoop | None = None
+        self._standstill = None                   # (parameter values, their standstill loop or None, refusal)
         self.time = 0.0
         for name, (unit, start, text) in INPUTS.items():
             setattr(self, name, start)
@@ -132,11 +133,31 @@ class LoopSlave(DeclaredSlave):
                                           getter=lambda name=name, owner=self.owner: owner._output(name)))
 
     def _output(self, name):
-        if self.model is None:
-            return 0.0                                    # before initialization: nothing computed yet
+        model = self.model if self.model is not None else self._standstill_model()
+        if model is None:
+            return math.nan
         if name == "refrigerant_charge_in_loop":
-            return self.model.charge
-        return self.model.outputs[name]
+            return model.charge
+        return model.outputs[name]
+
+    def _standstill_model(self) -> loop.RefrigerationLoop | None:
+        """Before exitInitializationMode: the standstill loop of the parameters as they are now (built again only
+        when they change), so that a master can pass the outputs on during initialization; None while they are
+        invalid (undefined_reason says why)."""
+        values = self.parameter_values()
+        key = tuple(values.items())
+        if self._standstill is None or self._standstill[0] != key:
+            try:
+                self.check_parameters(values)
+                self._standstill = (key, self._build_model(values), None)
+            except ValueError as refusal:
+                self._standstill = (key, None, str(refusal))
+        return self._standstill[1]
+
+    def undefined_reason(self, name):
+        if self.model is None and self._standstill is not None and self._standstill[2] is not None:
+            return f"no standstill state before initialization: {self._standstill[2]}"
+        return "no defined value"
 
     def initialize(self):
         self.check_parameters(self.parameter_values())
@@ -182,7 +203,7 @@ class LoopSlave(DeclaredSlave):
                     exchange=[float(v) for v in model.exchange] if built else [0.0] * 3,
                     drawn_rate=model.drawn_rate if built else 0.0,
                     secondary_temperatures=list(model.secondary_temperatures) if built else [0.0, 0.0],
-                    outputs={name: self._output(name) for name in OUTPUTS},
+                    outputs={name: self._output(name) if built else 0.0 for name in OUTPUTS},
                     inputs={name: getattr(self, name) for name in INPUTS})
 
     def restore(self, state):
