@@ -14,7 +14,7 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
 from ..mechanics.reduced import refrigeration_loop as loop
-from ..thermo.fluid_envelope import SUCTION_QUALITY_MIN, fluid_tables_for
+from ..thermo.fluid_envelope import SUCTION_QUALITY_MIN, fluid_property_table_for
 
 from . import state_schema as schema
 from .declared_slave import DeclaredSlave, number
@@ -167,7 +167,7 @@ class LoopSlave(DeclaredSlave):
     @staticmethod
     def _build_model(values) -> loop.RefrigerationLoop:
         try:
-            return loop.RefrigerationLoop(parameter_vector(values), fluid_tables_for(FLUID)[0],
+            return loop.RefrigerationLoop(parameter_vector(values), fluid_property_table_for(FLUID),
                                           values["initial_temperature"], values["refrigerant_charge"],
                                           SUCTION_QUALITY_MIN)
         except loop.LoopFailure as failure:
