@@ -23,8 +23,9 @@ import math
 import numpy as np
 
 from ...kernels.kernel import kernel
-from ...thermo.boundary_states import STATUS_NOT_CONVERGED, gas_density, state_at_pressure_enthalpy
-from ...thermo.property_table import STATUS_OK, table_from_arrays, table_state
+from ...thermo.boundary_states import (STATUS_NOT_CONVERGED, describe_boundary_status, gas_density,
+                                        state_at_pressure_enthalpy)
+from ...thermo.property_table import STATUS_OK, table_arrays, table_from_arrays, table_state
 from ...thermo.volume_state import volume_state
 
 # parameter vector (LoopParameters.vector)
@@ -266,7 +267,6 @@ class LoopFailure(Exception):
 
 def describe_failure(loop_status: int, table_status: int) -> str:
     """A sentence for a loop status and the property table's status that came with it."""
-    from ...thermo.boundary_states import describe_boundary_status
     text = FAILURES.get(int(loop_status), f"loop status {int(loop_status)}")
     if loop_status == EVAPORATOR_EMPTY:
         return text
@@ -281,15 +281,16 @@ class RefrigerationLoop:
 
     def __init__(self, parameters: np.ndarray, table, standstill_temperature: float, charge: float,
                  suction_quality_min: float):
-        from ...thermo.property_table import table_arrays
+        """The loop at standstill; LoopFailure if that state is not on the table or already floods the
+        compressor."""
         self.parameters = np.asarray(parameters, dtype=float)
         self.arrays = table_arrays(table)
         self.suction_quality_min = suction_quality_min
         y, status = standstill_state(standstill_temperature, charge, self.parameters[CONDENSER_VOLUME],
                                      self.parameters[EVAPORATOR_VOLUME], *self.arrays)
         if status != STATUS_OK:
-            raise ValueError(f"the standstill state (charge {charge!r} kg at {standstill_temperature!r} K) is not on "
-                             f"the property table: {describe_failure(CONDENSER_STATE_FAILED, status)}")
+            raise LoopFailure(f"the standstill state (the charge {charge!r} kg at {standstill_temperature!r} K) is "
+                              f"not on the property table: {describe_boundary_status(status)}")
         self.state = y
         self.guesses = np.array([standstill_temperature, standstill_temperature])
         self.exchange = np.zeros(3)          # cumulative drawn mass, delivered mass, delivered enthalpy at the state
@@ -303,7 +304,12 @@ class RefrigerationLoop:
                                                     *self.arrays)
         if status != LOOP_OK:
             raise LoopFailure(describe_failure(status, table_status))
-        return dict(zip(OUTPUT_NAMES, (float(value) for value in values)))
+        outputs = dict(zip(OUTPUT_NAMES, (float(value) for value in values)))
+        if outputs["suction_quality"] < self.suction_quality_min:
+            raise LoopFailure(f"the compressor would flood: suction vapour quality {outputs['suction_quality']:.4g} "
+                              f"is below the compressor's limit {self.suction_quality_min:g} (the evaporator "
+                              f"carries liquid over: it holds too much of the charge)")
+        return outputs
 
     def step(self, step_size, exchange, condenser_secondary_temperature, evaporator_secondary_temperature) -> None:
         """Advance by `step_size` [s] with the compressor's cumulative (drawn mass, delivered mass, delivered
@@ -328,10 +334,6 @@ class RefrigerationLoop:
         self.secondary_temperatures = (condenser_secondary_temperature, evaporator_secondary_temperature)
         try:
             outputs = self._outputs()
-            if outputs["suction_quality"] < self.suction_quality_min:
-                raise LoopFailure(f"the compressor would flood: suction vapour quality {outputs['suction_quality']:.4g}"
-                                  f" is below the compressor's limit {self.suction_quality_min:g} (the evaporator "
-                                  f"carries liquid over: it holds too much of the charge)")
         except LoopFailure:
             self.state, self.guesses, self.exchange, self.drawn_rate, self.secondary_temperatures = saved
             raise

@@ -137,3 +137,27 @@ def test_an_emptied_evaporator_discards_the_step_and_keeps_the_state():
     assert slave.log_queue[-1].status == Fmi2Status.discard
     assert "evaporator ran empty" in message and f"t = {k * 0.5 + 0.5!r} s" in message, message
     assert np.array_equal(slave.model.state, saved)
+
+
+def loop_vector(**changes):
+    from rotary_vane.fmu_src.refrigeration_loop import parameter_vector
+    return parameter_vector({**{n: meta["default"] for n, meta in PARAMETERS.items()}, **changes})
+
+
+def test_a_flooding_suction_is_refused_and_the_loop_kept():
+    """separation_fill = 1: the evaporator's outlet carries liquid whenever vapour does not fill it, so at
+    standstill its suction is wet (docs/model.md §16.2); a limit above that quality refuses it, at the start and
+    after a step, with the loop as before."""
+    from rotary_vane.mechanics.reduced.refrigeration_loop import LoopFailure, RefrigerationLoop
+    from rotary_vane.thermo.fluid_envelope import fluid_property_table_for
+    table = fluid_property_table_for("R134a")
+    wet = RefrigerationLoop(loop_vector(separation_fill=1.0), table, 298.15, 0.8, 0.5)
+    quality = wet.outputs["suction_quality"]
+    assert 0.5 < quality < 0.95
+    with pytest.raises(LoopFailure, match="the compressor would flood: suction vapour quality"):
+        RefrigerationLoop(loop_vector(separation_fill=1.0), table, 298.15, 0.8, 0.99)
+    wet.suction_quality_min = quality + 1e-3          # the next state, no drier, floods
+    before = wet.state.copy(), dict(wet.outputs)
+    with pytest.raises(LoopFailure, match="would flood"):
+        wet.step(0.1, (0.0, 0.0, 0.0), CONDENSER_SECONDARY, 298.15)
+    assert np.array_equal(wet.state, before[0]) and wet.outputs == before[1]
