@@ -106,7 +106,8 @@ def test_steady_state_matches_an_independent_steady_cycle():
     capacity, cop, condenser_pressure = steady_cycle()
     out = slave.model.outputs
     loop_cop = out["evaporator_heat_flow"] / (MASS_FLOW * (DISCHARGE_ENTHALPY - out["suction_enthalpy"]))
-    print(f"capacity {out['evaporator_heat_flow']:.6g} W vs {capacity:.6g} W, COP {loop_cop:.6g} vs {cop:.6g}")
+    print(f"thermostatic: capacity {out['evaporator_heat_flow']:.8g} W vs {capacity:.8g} W, COP {loop_cop:.8g} vs "
+          f"{cop:.8g}")
     assert out["evaporator_heat_flow"] == pytest.approx(capacity, rel=1e-3)
     assert loop_cop == pytest.approx(cop, rel=1e-3)
     assert out["discharge_pressure"] == pytest.approx(condenser_pressure, rel=1e-3)
@@ -161,3 +162,50 @@ def test_a_flooding_suction_is_refused_and_the_loop_kept():
     with pytest.raises(LoopFailure, match="would flood"):
         wet.step(0.1, (0.0, 0.0, 0.0), CONDENSER_SECONDARY, 298.15)
     assert np.array_equal(wet.state, before[0]) and wet.outputs == before[1]
+
+
+FIXED_ORIFICE_AREA = 3.6e-7     # m2: passes a little more than 10 g/s of saturated liquid, so the outlet flashes
+
+
+def steady_fixed_orifice_cycle():
+    """Capacity [W] and COP of the steady loop with a fixed orifice that would pass more than the compressor's flow
+    of saturated liquid, from CoolProp: the condenser's outlet then flashes (quality x_o > 0) until the orifice
+    passes exactly the compressor's flow, and the evaporator, holding most of the charge, stays wetted (no dry part,
+    no superheat): (T_c, T_e, x_o) solve the two energy balances and the orifice law (docs/model.md §16.2-16.3)."""
+    import CoolProp.CoolProp as CP
+    p = {name: meta["default"] for name, meta in PARAMETERS.items()}
+
+    def sat(quantity, temperature, quality):
+        return CP.PropsSI(quantity, "T", temperature, "Q", quality, "R134a")
+
+    def outlet(condensing, quality):
+        return sat("H", condensing, quality), sat("D", condensing, quality)
+
+    def residuals(unknowns):
+        condensing, evaporating, quality = unknowns
+        enthalpy, density = outlet(condensing, quality)
+        dp = sat("P", condensing, 0) - sat("P", evaporating, 1)
+        flow = (p["discharge_coefficient"] * FIXED_ORIFICE_AREA * math.sqrt(2 * density) * dp
+                / (dp * dp + 1000.0 ** 2) ** 0.25)
+        return [MASS_FLOW * (DISCHARGE_ENTHALPY - enthalpy) - p["condenser_ua"] * (condensing - CONDENSER_SECONDARY),
+                MASS_FLOW * (sat("H", evaporating, 1) - enthalpy)
+                - p["evaporator_ua"] * (EVAPORATOR_SECONDARY - evaporating),
+                (flow - MASS_FLOW) / MASS_FLOW]
+
+    condensing, evaporating, quality = fsolve(residuals, [318.0, 278.0, 0.01], xtol=1e-12)
+    assert 0.0 < quality < 0.1
+    capacity = MASS_FLOW * (sat("H", evaporating, 1) - outlet(condensing, quality)[0])
+    return capacity, capacity / (MASS_FLOW * (DISCHARGE_ENTHALPY - sat("H", evaporating, 1)))
+
+
+def test_fixed_orifice_steady_state_matches_an_independent_steady_cycle():
+    slave = started_slave(valve_kind="fixed_orifice", valve_area=FIXED_ORIFICE_AREA)
+    run(slave, 400, 0.5, lambda t: MASS_FLOW, lambda t: DISCHARGE_ENTHALPY)
+    capacity, cop = steady_fixed_orifice_cycle()
+    out = slave.model.outputs
+    loop_cop = out["evaporator_heat_flow"] / (MASS_FLOW * (DISCHARGE_ENTHALPY - out["suction_enthalpy"]))
+    print(f"fixed orifice: capacity {out['evaporator_heat_flow']:.8g} W vs {capacity:.8g} W, COP {loop_cop:.8g} vs "
+          f"{cop:.8g}")
+    assert out["suction_temperature"] == out["evaporator_temperature"]      # no superheat: the evaporator is wetted
+    assert out["evaporator_heat_flow"] == pytest.approx(capacity, rel=1e-3)
+    assert loop_cop == pytest.approx(cop, rel=1e-3)
