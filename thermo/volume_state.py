@@ -35,6 +35,7 @@ class VolumeState(NamedTuple):
     pressure: float             # Pa
     density: float              # kg/m^3
     enthalpy: float             # J/kg, of the contents
+    heat_capacity: float        # c_v = du/dT at constant volume, J/(kg K)
     quality: float              # vapour mass fraction, 1 for a gas
     liquid_volume: float        # v_l, m^3/kg
     vapour_volume: float        # v_v, m^3/kg
@@ -78,7 +79,7 @@ def volume_state(mass, energy, volume, guess, table):
     temperature, status = volume_temperature(density, energy / mass, guess, table)
     nan = math.nan
     if status != STATUS_OK:
-        return VolumeState(nan, nan, density, nan, nan, nan, nan, nan, nan, status)
+        return VolumeState(nan, nan, density, nan, nan, nan, nan, nan, nan, nan, status)
     state = table_state(temperature, density, table)
     quality = table_quality(temperature, density, table)
     liquid_volume = vapour_volume = liquid_enthalpy = vapour_enthalpy = nan
@@ -89,5 +90,6 @@ def volume_state(mass, energy, volume, guess, table):
         vapour_volume = saturation_quantity(VAPOUR_VOLUME, temperature, lo, step, nodes)[0]
         liquid_enthalpy = saturation_quantity(LIQUID_ENTHALPY, temperature, lo, step, nodes)[0]
         vapour_enthalpy = table_state(temperature, 1.0 / vapour_volume, table).enthalpy
-    return VolumeState(temperature, state.pressure, density, state.enthalpy, quality, liquid_volume, vapour_volume,
+    return VolumeState(temperature, state.pressure, density, state.enthalpy, state.heat_capacity_v, quality,
+                       liquid_volume, vapour_volume,
                        liquid_enthalpy, vapour_enthalpy, STATUS_OK)

@@ -44,6 +44,7 @@ CONDENSER_MASS, CONDENSER_ENERGY, EVAPORATOR_MASS, EVAPORATOR_ENERGY, CONDENSER_
 STATE_COUNT = 7
 
 VALVE_LAMINAR_PRESSURE = 1000.0        # Pa: dp0 of the orifice law's regularisation (docs/model.md §16.3)
+EMPTY_QUALITY = 0.999                  # an evaporator this dry has run empty (docs/model.md §16.2)
 
 # loop status (the second code returned with it is the property table's, thermo.property_table)
 LOOP_OK = 0
@@ -138,7 +139,7 @@ def loop_derivatives(y, parameters, inputs, guesses, table, slopes):
                               table)
     if evaporator.status != STATUS_OK:
         return EVAPORATOR_STATE_FAILED, evaporator.status
-    if not evaporator.quality < 1.0:
+    if not evaporator.quality < EMPTY_QUALITY:
         return EVAPORATOR_EMPTY, 0
     guesses[0], guesses[1] = condenser.temperature, evaporator.temperature
     fill = parameters[SEPARATION_FILL]
@@ -227,6 +228,19 @@ def loop_outputs(y, parameters, drawn_rate, secondary_temperature, guesses, scal
 
 
 @kernel(allocates=True)
+def thermal_time_constant(y, parameters, guesses, scalars, nodes, dome_limit, accurate_cell, ideal_gas_exponent,
+                          saturation_nodes):
+    """min(M_c c_v,c / UA_c, M_e c_v,e / UA_e) [s] at the state y: the time constants of the volumes' heat exchange
+    (docs/model.md §16.6); NaN if a volume's state fails."""
+    table = table_from_arrays(scalars, nodes, dome_limit, accurate_cell, ideal_gas_exponent, saturation_nodes)
+    condenser = volume_state(y[CONDENSER_MASS], y[CONDENSER_ENERGY], parameters[CONDENSER_VOLUME], guesses[0], table)
+    evaporator = volume_state(y[EVAPORATOR_MASS], y[EVAPORATOR_ENERGY], parameters[EVAPORATOR_VOLUME], guesses[1],
+                              table)
+    return min(y[CONDENSER_MASS] * condenser.heat_capacity / parameters[CONDENSER_UA],
+               y[EVAPORATOR_MASS] * evaporator.heat_capacity / parameters[EVAPORATOR_UA])
+
+
+@kernel(allocates=True)
 def standstill_state(temperature, charge, condenser_volume, evaporator_volume, scalars, nodes, dome_limit,
                      accurate_cell, ideal_gas_exponent, saturation_nodes):
     """(y, table status): the charge spread at one density over both volumes at one temperature (equal pressures,
@@ -249,6 +263,9 @@ def standstill_state(temperature, charge, condenser_volume, evaporator_volume, s
 # the loop in Python: parameters, state, and one communication step
 
 MAX_SUBSTEP = 0.02                     # s: RK4 substep bound (docs/model.md §16.6)
+THERMAL_SUBSTEP_FRACTION = 0.5         # substep / the volumes' shortest heat exchange time constant
+SUBSTEP_REFINEMENTS = 3                # a failed step is retried with 4 and 16 times as many substeps
+MAX_SUBSTEPS = 1_000_000               # in one communication step
 OUTPUT_NAMES = ("condenser_temperature", "discharge_pressure", "condenser_quality", "evaporator_temperature",
                 "suction_pressure", "evaporator_quality", "suction_temperature", "suction_enthalpy",
                 "suction_quality", "valve_opening", "valve_mass_flow")
@@ -256,7 +273,8 @@ HEAT_FLOW_NAMES = ("condenser_heat_flow", "evaporator_heat_flow")   # step means
 FAILURES = {
     CONDENSER_STATE_FAILED: "the condenser's state",
     EVAPORATOR_STATE_FAILED: "the evaporator's state",
-    EVAPORATOR_EMPTY: "the evaporator ran empty: no liquid left in it (vapour quality 1)",
+    EVAPORATOR_EMPTY: f"the evaporator ran empty: less than {100 * (1 - EMPTY_QUALITY):g} % of its refrigerant is "
+                      f"liquid (vapour quality above {EMPTY_QUALITY:g})",
     SUCTION_STATE_FAILED: "the suction state",
 }
 
@@ -322,10 +340,20 @@ class RefrigerationLoop:
         inputs[CONDENSER_SECONDARY_TEMPERATURE] = condenser_secondary_temperature
         inputs[EVAPORATOR_SECONDARY_TEMPERATURE] = evaporator_secondary_temperature
         inputs[SUCTION_ENTHALPY] = self.outputs["suction_enthalpy"]
-        substeps = max(1, math.ceil(step_size / MAX_SUBSTEP))
-        guesses = self.guesses.copy()
-        y, status, table_status = advance_loop(self.state, step_size, substeps, self.parameters, inputs, guesses,
-                                               *self.arrays)
+        time_constant = thermal_time_constant(self.state, self.parameters, self.guesses, *self.arrays)
+        substep = min(MAX_SUBSTEP, THERMAL_SUBSTEP_FRACTION * time_constant) if time_constant > 0.0 else MAX_SUBSTEP
+        substeps = max(1, math.ceil(step_size / substep))
+        for _ in range(SUBSTEP_REFINEMENTS):
+            if substeps > MAX_SUBSTEPS:
+                raise LoopFailure(f"the step of {step_size!r} s needs more than {MAX_SUBSTEPS} RK4 substeps (the "
+                                  f"volumes' heat exchange time constant is {time_constant:.3g} s): use a shorter "
+                                  f"communication step")
+            guesses = self.guesses.copy()
+            y, status, table_status = advance_loop(self.state, step_size, substeps, self.parameters, inputs,
+                                                   guesses, *self.arrays)
+            if status == LOOP_OK:
+                break
+            substeps *= 4
         if status != LOOP_OK:
             raise LoopFailure(describe_failure(status, table_status))
         saved = (self.state, self.guesses, self.exchange, self.drawn_rate, self.secondary_temperatures)
