@@ -273,8 +273,8 @@ HEAT_FLOW_NAMES = ("condenser_heat_flow", "evaporator_heat_flow")   # step means
 FAILURES = {
     CONDENSER_STATE_FAILED: "the condenser's state",
     EVAPORATOR_STATE_FAILED: "the evaporator's state",
-    EVAPORATOR_EMPTY: f"the evaporator ran empty: less than {100 * (1 - EMPTY_QUALITY):g} % of its refrigerant is "
-                      f"liquid (vapour quality above {EMPTY_QUALITY:g})",
+    EVAPORATOR_EMPTY: f"the evaporator ran empty: its mean vapour quality exceeds {EMPTY_QUALITY:g} (next to no "
+                      f"liquid left)",
     SUCTION_STATE_FAILED: "the suction state",
 }
 
