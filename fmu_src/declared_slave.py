@@ -53,6 +53,19 @@ class DeclaredSlave(GuardedSlave):
             return
         cls.check_parameters(model["parameters"])
 
+    def restore_settings(self, state, input_names) -> None:
+        """Set the parameters and the inputs `input_names` of a saved state (`restore`), its parameters checked
+        first if it holds a built model."""
+        parameters = state["parameters"]
+        if set(parameters) != set(self.declared_parameters):
+            raise ValueError(f"the state is not one of {type(self).__name__}")
+        if state["built"]:
+            self.check_parameters(parameters)
+        for name, value in parameters.items():
+            setattr(self, name, value)
+        for name in input_names:
+            setattr(self, name, float(state["inputs"][name]))
+
     def parameter_values(self) -> dict:
         return {name: getattr(self, name) for name in self.declared_parameters}
 

@@ -178,15 +178,10 @@ class MotorSlave(DeclaredSlave):
 
     def restore(self, state):
         """Restore a state; the motor model is rebuilt from the state's parameters."""
-        parameters, values = state["parameters"], [float(value) for value in state["state"]]
-        if set(parameters) != set(PARAMETERS) or len(values) != 5:
+        values = [float(value) for value in state["state"]]
+        if len(values) != 5:
             raise ValueError("the state is not this motor's")
-        if state["built"]:
-            self.check_parameters(parameters)
-        for name, value in parameters.items():
-            setattr(self, name, value)
-        for name in INPUTS:
-            setattr(self, name, float(state["inputs"][name]))
+        self.restore_settings(state, INPUTS)
         self.model = None
         if state["built"]:
             self._build_model()

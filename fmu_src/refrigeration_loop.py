@@ -208,18 +208,10 @@ class LoopSlave(DeclaredSlave):
 
     def restore(self, state):
         """Restore a state; the loop is rebuilt from the state's parameters, then given the saved state."""
-        parameters = state["parameters"]
-        if set(parameters) != set(PARAMETERS):
-            raise ValueError("the state is not this loop's")
-        if state["built"]:
-            self.check_parameters(parameters)
-        for name, value in parameters.items():
-            setattr(self, name, value)
-        for name in INPUTS:
-            setattr(self, name, float(state["inputs"][name]))
+        self.restore_settings(state, INPUTS)
         self.model = None
         if state["built"]:
-            model = self._build_model(parameters)
+            model = self._build_model(state["parameters"])
             model.state = np.array(state["state"], dtype=float)
             model.guesses = np.array(state["guesses"], dtype=float)
             model.exchange = np.array(state["exchange"], dtype=float)
