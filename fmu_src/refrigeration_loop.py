@@ -44,8 +44,9 @@ PARAMETERS = {
                                                     "below which the outlet draws the mixture instead of one phase"),
     "dryout_quality": number("1", 0.7, 0.0, 0.99, "evaporator mean vapour quality above which part of its surface "
                                                    "is dry"),
-    "initial_temperature": number("K", 298.15, 233.15, 333.15, "temperature of the loop at standstill (equal "
-                                                                "pressures) at the start time"),
+    "initial_temperature": number("K", 288.15, 233.15, 333.15, "temperature of the loop at standstill (equal "
+                                                                "pressures) at the start time; the compressor takes "
+                                                                "suction pressures up to p_sat(20 degC)"),
 }
 VECTOR_ORDER = ("condenser_volume", "evaporator_volume", "condenser_ua", "evaporator_ua", "valve_kind", "valve_area",
                 "discharge_coefficient", "static_superheat", "superheat_band", "suction_line_effectiveness",
