@@ -24,8 +24,10 @@ def fmu_variables() -> dict[str, list]:
     """{FMU model name: the ScalarVariables its slave registers, in declaration order}."""
     from rotary_vane.fmu_src.compressor import CompressorSlave
     from rotary_vane.fmu_src.motor import MotorSlave
+    from rotary_vane.fmu_src.refrigeration_loop import LoopSlave
     return {name: list(cls(instance_name="docs", resources=None).vars.values())
-            for name, cls in (("RotaryVaneCompressor", CompressorSlave), ("DriveMotor", MotorSlave))}
+            for name, cls in (("RotaryVaneCompressor", CompressorSlave), ("DriveMotor", MotorSlave),
+                              ("RefrigerationLoop", LoopSlave))}
 
 
 def _type_name(variable) -> str:

@@ -11,11 +11,11 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
 from ..mechanics.reduced.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
-from ..mechanics.parameters import short_repr
 from ..mechanics.loop.speed import RPM
 
 from . import state_schema as schema
-from .slave import GuardedSlave, StepFailed
+from .declared_slave import DeclaredSlave, number
+from .slave import StepFailed
 from .variables import RealVariable, declared_parameter, output
 
 MAX_SUBSTEPS = 1_000_000                      # RK4 substeps in one communication step (about 4 s of wall time)
@@ -24,30 +24,25 @@ MAX_SUBSTEPS = 1_000_000                      # RK4 substeps in one communicatio
 # ------------------------------------------------------------------------------------------------------------
 # The FMI slave.
 
-def _number(unit, default, minimum, maximum, description, *, integer=False):
-    """A numeric parameter with its unit and closed range [minimum, maximum] (FMI min/max are inclusive)."""
-    return dict(unit=unit, default=default, min=minimum, max=maximum, integer=integer, description=description)
-
-
 PARAMETERS = {
     "motor_type": dict(unit="", default="induction", choices=MOTOR_TYPES,
                        description="motor model: Kloss steady-state induction motor or DC motor with armature "
                                    "circuit"),
-    "rated_power": _number("W", 1500.0, 1.0, 1e7, "induction: rated (nameplate) mechanical power P_r"),
-    "rated_speed": _number("rpm", 1440.0, 1.0, 1e5, "induction: rated speed n_r, below the synchronous speed "
+    "rated_power": number("W", 1500.0, 1.0, 1e7, "induction: rated (nameplate) mechanical power P_r"),
+    "rated_speed": number("rpm", 1440.0, 1.0, 1e5, "induction: rated speed n_r, below the synchronous speed "
                                                     "60 f/p"),
-    "supply_frequency": _number("Hz", 50.0, 0.1, 1000.0, "induction: supply frequency f"),
-    "pole_pairs": _number("1", 2, 1, 50, "induction: number of pole pairs p", integer=True),
-    "breakdown_torque_ratio": _number("1", 2.5, 1.01, 10.0, "induction: breakdown torque / rated torque "
+    "supply_frequency": number("Hz", 50.0, 0.1, 1000.0, "induction: supply frequency f"),
+    "pole_pairs": number("1", 2, 1, 50, "induction: number of pole pairs p", integer=True),
+    "breakdown_torque_ratio": number("1", 2.5, 1.01, 10.0, "induction: breakdown torque / rated torque "
                                                            "k = T_b/T_r"),
-    "armature_resistance": _number("Ohm", 0.3, 1e-6, 1e3, "dc: armature resistance R"),
-    "armature_inductance": _number("H", 1e-3, 1e-9, 10.0, "dc: armature inductance L"),
-    "torque_constant": _number("N.m/A", 0.28, 1e-6, 100.0, "dc: torque constant K (= back-emf constant in V.s/rad)"),
-    "motor_inertia": _number("kg.m2", 4.0e-3, 0.0, 1e3, "moment of inertia of the motor rotor J_motor"),
-    "load_inertia": _number("kg.m2", 5.5e-4, 0.0, 1e3, "moment of inertia of the driven load on the shaft J_load "
+    "armature_resistance": number("Ohm", 0.3, 1e-6, 1e3, "dc: armature resistance R"),
+    "armature_inductance": number("H", 1e-3, 1e-9, 10.0, "dc: armature inductance L"),
+    "torque_constant": number("N.m/A", 0.28, 1e-6, 100.0, "dc: torque constant K (= back-emf constant in V.s/rad)"),
+    "motor_inertia": number("kg.m2", 4.0e-3, 0.0, 1e3, "moment of inertia of the motor rotor J_motor"),
+    "load_inertia": number("kg.m2", 5.5e-4, 0.0, 1e3, "moment of inertia of the driven load on the shaft J_load "
                                                        "(the compressor's rotor_inertia; then give the compressor "
                                                        "rotor_inertia = 0, else its torque counts it again)"),
-    "initial_speed": _number("rpm", 0.0, -1e5, 1e5, "shaft speed at the start time"),
+    "initial_speed": number("rpm", 0.0, -1e5, 1e5, "shaft speed at the start time"),
 }
 INPUTS = {  # name -> (unit, start, limit on |value|, description)
     "load_torque": ("N.m", 0.0, 1e6, "load torque on the shaft, held over each communication step "
@@ -67,7 +62,7 @@ OUTPUTS = {  # name -> (unit, description)
 }
 
 
-# a saved motor (MotorSlave.snapshot); parameter values as an importer may have set them (ranges: _check_built)
+# a saved motor (MotorSlave.snapshot); parameter values as an importer may have set them (ranges: check_built)
 MODEL_SCHEMA = schema.Record({
     "parameters": schema.Record({name: schema.Text(length=10 ** 6) if "choices" in meta else
                           schema.Integer(-2 ** 63, 2 ** 63) if meta["integer"] else schema.Real(finite=False)
@@ -80,52 +75,15 @@ MODEL_SCHEMA = schema.Record({
 })
 
 
-def _check_built(tree) -> None:
-    """A saved motor that is built has valid parameters; one that is not has not run."""
-    model = tree["model"]
-    if not model["built"]:
-        if model["time"] != 0.0:
-            raise ValueError(f"the state is inconsistent: no motor is built, yet its time is {model['time']!r} s")
-        return
-    check_parameters(model["parameters"])
-
-
-def check_parameters(values: dict) -> None:
-    """Each parameter in its range, and their relations; ValueError naming the parameter otherwise."""
-    for name, meta in PARAMETERS.items():
-        check_parameter(name, values[name], meta)
-    inertia = values["motor_inertia"] + values["load_inertia"]
-    if not inertia > 0.0:
-        raise ValueError(f"motor_inertia + load_inertia = {inertia!r} kg.m2 is invalid: allowed > 0 kg.m2")
-    if values["motor_type"] == "induction":
-        synchronous_rpm = 60.0 * values["supply_frequency"] / values["pole_pairs"]
-        if not values["rated_speed"] < synchronous_rpm:
-            raise ValueError(f"parameter 'rated_speed' = {values['rated_speed']!r} rpm is out of range: allowed "
-                             f"(0, {synchronous_rpm:g}) rpm, below the synchronous speed 60 f/p")
-
-
-def check_parameter(name, value, meta):
-    """Raise ValueError naming the parameter, its value and the allowed values or range."""
-    if "choices" in meta:
-        if value not in meta["choices"]:
-            raise ValueError(f"parameter '{name}' = {short_repr(value)} is invalid: allowed one of "
-                             f"{', '.join(meta['choices'])}")
-        return
-    unit = "" if meta["unit"] == "1" else f" {meta['unit']}"
-    allowed = f"{'an integer' if meta['integer'] else 'a finite value'} in [{meta['min']:g}, {meta['max']:g}]{unit}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or (meta["integer"] and value != int(value)) or value > meta["max"] \
-            or value < meta["min"]:
-        raise ValueError(f"parameter '{name}' = {short_repr(value)}{unit} is out of range: allowed {allowed}")
-
-
-class MotorSlave(GuardedSlave):
+class MotorSlave(DeclaredSlave):
     """Drive motor (Kloss induction motor or DC motor) integrating the shaft: load torque in, speed out."""
 
     description = ("Drive motor on a rigid shaft: steady-state Kloss induction motor or DC motor with armature "
                    "circuit; load torque in, shaft speed [rpm], torque, powers and energies out.")
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=0.5, step_size=1e-3)
     example_start_values = {"motor_type": "induction", "load_torque": 2.5, "load_inertia": 5.5e-4}
+    declared_parameters = PARAMETERS
+    state_schema = MODEL_SCHEMA
     documentation_note = ("Plain Python, no compiled kernels. Couple shaft_speed to the compressor's shaft_speed "
                           "and the compressor's shaft_torque_mean to load_torque; put the compressor's rotor "
                           "inertia into load_inertia and set the compressor's rotor_inertia to 0.")
@@ -154,7 +112,7 @@ class MotorSlave(GuardedSlave):
 
     # model ------------------------------------------------------------------------------------------------------
     def initialize(self):
-        check_parameters({name: getattr(self, name) for name in PARAMETERS})
+        self.check_parameters(self.parameter_values())
         self._build_model()
         self.time = 0.0
         self.state = (self.initial_speed * RPM, 0.0, 0.0, 0.0, 0.0)
@@ -200,38 +158,30 @@ class MotorSlave(GuardedSlave):
                       shaft_angle=y[2], current=y[1], electrical_energy=y[3], motor_work=y[4])
 
     # state --------------------------------------------------------------------------------------------------
-    def changed_parameters(self):
-        return {name: getattr(self, name) for name, meta in PARAMETERS.items()
-                if getattr(self, name) != meta["default"]}
-
     @classmethod
-    def model_schema(cls):
-        return MODEL_SCHEMA
-
-    @classmethod
-    def model_relations(cls):
-        return (_check_built,)
-
-    @classmethod
-    def model_time(cls, model):
-        return model["time"] if model["built"] else None
+    def check_parameters(cls, values: dict) -> None:
+        """Each parameter in its range, and their relations; ValueError naming the parameter otherwise."""
+        super().check_parameters(values)
+        inertia = values["motor_inertia"] + values["load_inertia"]
+        if not inertia > 0.0:
+            raise ValueError(f"motor_inertia + load_inertia = {inertia!r} kg.m2 is invalid: allowed > 0 kg.m2")
+        if values["motor_type"] == "induction":
+            synchronous_rpm = 60.0 * values["supply_frequency"] / values["pole_pairs"]
+            if not values["rated_speed"] < synchronous_rpm:
+                raise ValueError(f"parameter 'rated_speed' = {values['rated_speed']!r} rpm is out of range: "
+                                 f"allowed (0, {synchronous_rpm:g}) rpm, below the synchronous speed 60 f/p")
 
     def snapshot(self):
-        return dict(parameters={name: getattr(self, name) for name in PARAMETERS}, built=self.model is not None,
+        return dict(parameters=self.parameter_values(), built=self.model is not None,
                     time=self.time, state=list(self.state), outputs=dict(self.outputs),
                     inputs={name: getattr(self, name) for name in INPUTS})
 
     def restore(self, state):
         """Restore a state; the motor model is rebuilt from the state's parameters."""
-        parameters, values = state["parameters"], [float(value) for value in state["state"]]
-        if set(parameters) != set(PARAMETERS) or len(values) != 5:
+        values = [float(value) for value in state["state"]]
+        if len(values) != 5:
             raise ValueError("the state is not this motor's")
-        if state["built"]:
-            check_parameters(parameters)
-        for name, value in parameters.items():
-            setattr(self, name, value)
-        for name in INPUTS:
-            setattr(self, name, float(state["inputs"][name]))
+        self.restore_settings(state, INPUTS)
         self.model = None
         if state["built"]:
             self._build_model()

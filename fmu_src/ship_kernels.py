@@ -4,7 +4,9 @@ fmu_src.build runs `python -m <bundle>.fmu_src.ship_kernels` from the bundled pa
 with a temporary ROTARY_VANE_CACHE_DIR, none of the builder's NUMBA_* settings and numba's portable CPU
 (NUMBA_CPU_NAME = compile_cache.portable_cpu, NUMBA_CPU_FEATURES=""). Each run drives the compressor slave through
 its FMI callbacks for every pressure model with every integrator (initialization, steps past the first revolution,
-every output), which asks numba for every kernel and signature an FMU run calls from Python:
+every output), or with `--model RefrigerationLoop` the loop slave (initialization, steps with a running compressor's
+exchange, every output, a state restored), which asks numba for every kernel and signature an FMU run calls from
+Python:
 
 * the first run compiles them into the cache folder;
 * the second, `--into FOLDER`, must load all of them from there (it fails naming any kernel it had to compile),
@@ -32,6 +34,7 @@ from ..kernels import compile_cache
 from ..thermo import disk_cache
 
 from .compressor import CompressorSlave
+from .refrigeration_loop import LoopSlave
 from .slave import INITIALIZED
 
 PROJECT_DIR = Path(__file__).resolve().parent.parent
@@ -58,6 +61,26 @@ def run_fmu(pressure_model: str, integrator: str) -> None:
     if not stepped or refusals:
         raise RuntimeError(f"the FMU run with pressure_model={pressure_model!r}, integrator={integrator!r} did not "
                            f"complete: {refusals}")
+
+
+def run_loop() -> None:
+    """One run of the refrigeration loop slave through its FMI callbacks (module docstring); RuntimeError with its
+    messages if refused."""
+    slave = LoopSlave(instance_name="ship_kernels")
+    slave.setup_experiment(0.0)
+    slave.enter_initialization_mode()
+    slave.exit_initialization_mode()
+    stepped = slave.phase == INITIALIZED
+    for k in range(STEPS):
+        slave.drawn_mass += 1e-5
+        slave.delivered_mass += 1e-5
+        slave.delivered_enthalpy += 1e-5 * 440e3
+        stepped = stepped and slave.do_step(k * STEP_SIZE, STEP_SIZE)
+    slave._set_fmu_state(slave._fmu_state_from_bytes(slave._fmu_state_to_bytes(slave._get_fmu_state())))
+    slave.get_real([reference for reference, variable in slave.vars.items() if isinstance(variable, Real)])
+    refusals = [entry.msg for entry in slave.log_queue if entry.status not in (Fmi2Status.ok, Fmi2Status.warning)]
+    if not stepped or refusals:
+        raise RuntimeError(f"the refrigeration loop run did not complete: {refusals}")
 
 
 def bundle_kernels() -> list[Dispatcher]:
@@ -98,6 +121,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--into", type=Path, help="second run: ship the kernels loaded from the cache into this "
                                                   "new folder")
+    parser.add_argument("--model", choices=("RotaryVaneCompressor", "RefrigerationLoop"),
+                        default="RotaryVaneCompressor", help="the FMU whose runs ask for the kernels")
     args = parser.parse_args(argv)
     if args.into is not None and args.into.exists():
         parser.error(f"--into {args.into}: already exists")
@@ -108,9 +133,12 @@ def main(argv=None) -> int:
         parser.error(f"numba compiles for {compiles_for}, not for {target}: run with NUMBA_CPU_NAME={target[1]} "
                      f"NUMBA_CPU_FEATURES=''")
     with event.install_recorder("numba:compile") as recorder:
-        for pressure_model in PRESSURE_MODELS:
-            for integrator in INTEGRATORS:
-                run_fmu(pressure_model, integrator)
+        if args.model == "RefrigerationLoop":
+            run_loop()
+        else:
+            for pressure_model in PRESSURE_MODELS:
+                for integrator in INTEGRATORS:
+                    run_fmu(pressure_model, integrator)
     if args.into is not None:
         compiled = sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in recorder.buffer if e.is_start})
         if compiled:

@@ -41,7 +41,7 @@ OPERATING_POINT = {"shaft_speed": 1500.0, "slot_clearance": 5e-5, "stator_cleara
 
 
 # test side ----------------------------------------------------------------------------------------------------
-def build_fmu(out_dir: Path, project_dir: Path = PROJECT_DIR, timeout: float = 300.0, options=()) -> Path:
+def build_fmu(out_dir: Path, project_dir: Path = PROJECT_DIR, timeout: float = 900.0, options=()) -> Path:
     """Build the FMU of the sources in `project_dir` into `out_dir` (a subprocess, with the build's `options`);
     return the .fmu path."""
     out_dir = Path(out_dir)

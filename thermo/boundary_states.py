@@ -67,6 +67,13 @@ def _density_newton(temperature, pressure, density, table):
 
 
 @kernel
+def gas_density(temperature, pressure, guess, table):
+    """(rho [kg/m^3], status) of the gas at (T [K], p [Pa]) on the table, by Newton from the density `guess`
+    (module docstring); STATUS_NOT_CONVERGED where no gas state is there (inside the dome)."""
+    return _density_newton(temperature, pressure, guess, table)
+
+
+@kernel
 def _pressure_enthalpy_newton(pressure, enthalpy, temperature, density, table):
     """(T, rho, status): 2-D Newton on (p, h)(T, ln rho) = (pressure, enthalpy) from (temperature, density)."""
     log_density = math.log(density)

@@ -198,16 +198,27 @@ class _Named(NamedTuple):
     coolprop_name: str              # what property_table_for and nozzle_table_for need to find a cached table
 
 
+def _named_envelope(fluid, cache_dir):
+    """(envelope, what the table builders need to find a cached table) of `fluid` (a Fluid or a name)."""
+    if isinstance(fluid, Fluid):
+        return fluid_envelope(fluid), fluid
+    found = fluid_range_for(fluid, cache_dir)
+    if found.envelope is None:
+        input_range(Fluid(fluid))                    # raises the ValueError that says why
+    return found.envelope, _Named(found.coolprop_name)
+
+
+def fluid_property_table_for(fluid, cache_dir=None):
+    """The property table of `fluid` (a Fluid or a name) over its fluid-wide envelope with the dome on, as
+    `fluid_tables_for` gives it, without the nozzle table (the refrigeration loop needs no nozzle)."""
+    envelope, named = _named_envelope(fluid, cache_dir)
+    return property_table_for(named, envelope, *fluid_grid(envelope), cache_dir=cache_dir, two_phase=True)
+
+
 def fluid_tables_for(fluid, cache_dir=None):
     """(property table, nozzle table) of `fluid` (a Fluid or a name) over its fluid-wide envelope, with the dome
     on (two_phase), from the disk cache or built and cached (thermo.disk_cache); with every file cached, CoolProp
     is not imported. ValueError for a fluid without a declared input range."""
-    if isinstance(fluid, Fluid):
-        envelope, named = fluid_envelope(fluid), fluid
-    else:
-        found = fluid_range_for(fluid, cache_dir)
-        if found.envelope is None:
-            input_range(Fluid(fluid))                    # raises the ValueError that says why
-        envelope, named = found.envelope, _Named(found.coolprop_name)
-    return (property_table_for(named, envelope, *fluid_grid(envelope), cache_dir=cache_dir, two_phase=True),
+    envelope, named = _named_envelope(fluid, cache_dir)
+    return (fluid_property_table_for(fluid, cache_dir),
             nozzle_table_for(named, envelope, *fluid_nozzle_grid(envelope), cache_dir=cache_dir, two_phase=True))
