@@ -15,8 +15,8 @@ import numpy as np
 
 from ...kernels.kernel import kernel
 from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_SUCTION,
-                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, chamber_energy,
-                                     chamber_rates, volumes_with_dead_volume)
+                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, boundary_nodes,
+                                     chamber_energy, chamber_rates, volumes_with_dead_volume)
 from ...thermo.flow_paths import PATH
 from ...thermo.leakage import parabolic_flank_length, tapered_gap_length
 from ...thermo.property_table import PropertyTable, table_quality
@@ -278,10 +278,12 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
         work = ctx.flow_work[0]
-        flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, dydt, work)
+        flows, leading, trailing = chamber_rates(t, y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, dydt,
+                                                 work)
         if leading.status != 0 or trailing.status != 0 or flows.refused != 0:
             status = GAS_STATE_INVALID
-        pressures = (leading.pressure, trailing.pressure, m.discharge_pressure)
+        # the back chamber holds the back node's p_d of the moment (a moving boundary, docs/model.md §7.3.3)
+        pressures = (leading.pressure, trailing.pressure, boundary_nodes(c, t)[1].pressure)
     else:
         pressures = table_pressures(pose, memory, m, ctx.pressure_table)
     gas = combine(basis, pressures[0], pressures[1], pressures[2], tip, pose.omega, m)

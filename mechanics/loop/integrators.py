@@ -465,7 +465,7 @@ def _cross_valley(t, y, memory, ctx, real_gas):
     old_inputs = chamber_inputs_at(t, y, ctx, memory)
     memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
     memory[MEM_LOBE_COUNT] += 1.0
-    return switch_chambers(y, GAS_BLOCK, old_inputs, chamber_inputs_at(t, y, ctx, memory), ctx.chambers[0],
+    return switch_chambers(t, y, GAS_BLOCK, old_inputs, chamber_inputs_at(t, y, ctx, memory), ctx.chambers[0],
                            ctx.properties)
 
 
