@@ -43,6 +43,8 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                         help="the compressor's pressure models to run")
     parser.add_argument("--motor-power", type=number_parser("W"), default=1500.0,
                         help="rated power of the induction motor [W] (DriveMotor rated_power)")
+    parser.add_argument("--relative-tolerance", type=number_parser("", 0.0, 1.0), default=None,
+                        help="the compressor's relative_tolerance (default: the FMU's, 3e-5)")
     harness.add_common_options(parser, "coupling_convergence")
     args = parser.parse_args(argv)
     if args.max_iterations < 2:
@@ -53,11 +55,11 @@ def parse_arguments(argv=None) -> argparse.Namespace:
 
 def iterated_step(system: CoupledSystem, t: float, h: float, tolerance: float, max_iterations: int):
     """One communication step of the iterative master to |w_i - w_(i-1)| <= tolerance: (iterations, converged,
-    the last speed change [rpm])."""
+    the last speed change [rpm], the last change of the returned torque [N.m])."""
     motor, compressor = system.motor.fmu, system.compressor.fmu
     states = (motor.getFMUstate(), compressor.getFMUstate())
     torque = system.compressor.get("shaft_torque_mean")[0]
-    last_speed, change = None, float("inf")
+    last_speed, change, torque_change = None, float("inf"), float("inf")
     try:
         for iteration in range(1, max_iterations + 1):
             if iteration > 1:
@@ -69,33 +71,35 @@ def iterated_step(system: CoupledSystem, t: float, h: float, tolerance: float, m
             speed = system.motor.get("shaft_speed")[0]
             system.compressor.set("shaft_speed", speed)
             system.compressor.step(t, h)
-            torque = system.compressor.get("shaft_torque_mean")[0]
+            returned = system.compressor.get("shaft_torque_mean")[0]
+            torque_change, torque = abs(returned - torque), returned
             if last_speed is not None:
                 change = abs(speed - last_speed)
                 if change <= tolerance:
-                    return iteration, True, change
+                    return iteration, True, change, torque_change
             last_speed = speed
     finally:
         motor.freeFMUstate(states[0])
         compressor.freeFMUstate(states[1])
-    return max_iterations, False, change
+    return max_iterations, False, change, torque_change
 
 
 def convergence_run(system: CoupledSystem, args) -> dict:
     """The start-up with the iterative master at every step: iterations, steps not converged, wall time."""
     system.motor.start(system.motor_values(args.motor_power))
-    system.compressor.start(system.compressor_values())
+    tolerance = {} if args.relative_tolerance is None else {"relative_tolerance": args.relative_tolerance}
+    system.compressor.start({**system.compressor_values(), **tolerance})
     count = round(args.stop_time / args.step)
     iterations, unconverged, message = [], [], ""
     start = time.perf_counter()
     try:
         for k in range(count):
-            used, converged, change = iterated_step(system, k * args.step, args.step, args.speed_tolerance,
-                                                    args.max_iterations)
+            used, converged, change, torque_change = iterated_step(system, k * args.step, args.step,
+                                                                   args.speed_tolerance, args.max_iterations)
             iterations.append(used)
             if not converged:
                 unconverged.append({"time": k * args.step, "speed_change_rpm": change,
-                                    "speed_rpm": system.motor.get("shaft_speed")[0]})
+                                    "torque_change_nm": torque_change, "speed_rpm": system.motor.get("shaft_speed")[0]})
     except CouplingFailure as failure:
         message = str(failure)
     return {"pressure_model": system.pressure_model, "steps": len(iterations), "of": count,
@@ -106,18 +110,22 @@ def convergence_run(system: CoupledSystem, args) -> dict:
 
 
 def table(results: list[dict], args) -> str:
-    lines = [f"Iterative master, DriveMotor {args.motor_power:g} W + RotaryVaneCompressor from rest to "
-             f"{args.stop_time:g} s at {args.step:g} s steps; converged: interface speed within "
+    rtol = "the FMU's default" if args.relative_tolerance is None else f"{args.relative_tolerance:g}"
+    lines = [f"Iterative master, DriveMotor {args.motor_power:g} W + RotaryVaneCompressor (relative_tolerance "
+             f"{rtol}) from rest to {args.stop_time:g} s at {args.step:g} s steps; converged: interface speed within "
              f"{args.speed_tolerance:g} rpm between iterations (at most {args.max_iterations} iterations)", "",
              "| pressure model | steps | iterations / step (median / max) | steps not converged | largest speed "
-             "change left [rpm] | first at [s] | speed at the end [rpm] | wall [s] |",
-             "|---|---|---|---|---|---|---|---|"]
+             "change left [rpm] | largest torque change left [N.m] | first at [s] | speed at the end [rpm] | "
+             "wall [s] |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         worst = max((u["speed_change_rpm"] for u in r["unconverged"]), default=None)
+        torque = max((u["torque_change_nm"] for u in r["unconverged"]), default=None)
         first = r["unconverged"][0]["time"] if r["unconverged"] else None
         lines.append(f"| {r['pressure_model']} | {r['steps']} of {r['of']} | {r['iterations_median']:g} / "
                      f"{r['iterations_max']} | {len(r['unconverged'])} | "
-                     f"{'-' if worst is None else f'{worst:.2g}'} | {'-' if first is None else f'{first:.3f}'} | "
+                     f"{'-' if worst is None else f'{worst:.2g}'} | {'-' if torque is None else f'{torque:.2g}'} | "
+                     f"{'-' if first is None else f'{first:.3f}'} | "
                      f"{r['final_speed_rpm']:.2f} | {r['wall_s']:.0f} |")
         if r["failure"]:
             lines.append(f"\n{r['pressure_model']}: stopped: {r['failure']}")
