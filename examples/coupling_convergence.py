@@ -21,6 +21,7 @@ import argparse
 import json
 import sys
 import time
+from contextlib import closing
 
 import numpy as np
 
@@ -56,31 +57,15 @@ def parse_arguments(argv=None) -> argparse.Namespace:
 def iterated_step(system: CoupledSystem, t: float, h: float, tolerance: float, max_iterations: int):
     """One communication step of the iterative master to |w_i - w_(i-1)| <= tolerance: (iterations, converged,
     the last speed change [rpm], the last change of the returned torque [N.m])."""
-    motor, compressor = system.motor.fmu, system.compressor.fmu
-    states = (motor.getFMUstate(), compressor.getFMUstate())
-    torque = system.compressor.get("shaft_torque_mean")[0]
     last_speed, change, torque_change = None, float("inf"), float("inf")
-    try:
-        for iteration in range(1, max_iterations + 1):
-            if iteration > 1:
-                motor.setFMUstate(states[0])
-                compressor.setFMUstate(states[1])
-            system.motor.set("load_torque", torque)
-            system.motor.step(t, h)
-            system.check_speed(t + h)
-            speed = system.motor.get("shaft_speed")[0]
-            system.compressor.set("shaft_speed", speed)
-            system.compressor.step(t, h)
-            returned = system.compressor.get("shaft_torque_mean")[0]
-            torque_change, torque = abs(returned - torque), returned
+    with closing(system.evaluations(t, h, max_iterations)) as evaluations:
+        for iteration, speed, given, returned in evaluations:
+            torque_change = abs(returned - given)
             if last_speed is not None:
                 change = abs(speed - last_speed)
                 if change <= tolerance:
                     return iteration, True, change, torque_change
             last_speed = speed
-    finally:
-        motor.freeFMUstate(states[0])
-        compressor.freeFMUstate(states[1])
     return max_iterations, False, change, torque_change
 
 

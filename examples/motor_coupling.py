@@ -52,6 +52,7 @@ import math
 import sys
 import time
 import xml.etree.ElementTree as ElementTree
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -283,29 +284,39 @@ class CoupledSystem:
         self.compressor.step(t, h)
         return 1
 
-    def iterative(self, t: float, h: float) -> int:
+    def evaluations(self, t: float, h: float, most: int):
+        """The iterative master's evaluations of one step from the states at t (saved, restored before each further
+        evaluation, freed when the caller closes this generator): the motor steps with a load torque, the compressor
+        to the motor's new speed; yields (iteration, that speed, the torque the motor was given, the torque the
+        compressor returned). The first guess is the last step's torque, each next one the torque returned."""
         motor, compressor = self.motor.fmu, self.compressor.fmu
         states = (motor.getFMUstate(), compressor.getFMUstate())
-        torque = self.compressor.get("shaft_torque_mean")[0]            # first guess: the last step's torque
-        history = [torque]
+        torque = self.compressor.get("shaft_torque_mean")[0]
         try:
-            for iteration in range(1, MAX_ITERATIONS + 1):
+            for iteration in range(1, most + 1):
                 if iteration > 1:
                     motor.setFMUstate(states[0])
                     compressor.setFMUstate(states[1])
                 self.motor.set("load_torque", torque)
                 self.motor.step(t, h)
                 self.check_speed(t + h)
-                self.compressor.set("shaft_speed", self.motor.get("shaft_speed")[0])
+                speed = self.motor.get("shaft_speed")[0]
+                self.compressor.set("shaft_speed", speed)
                 self.compressor.step(t, h)
                 returned = self.compressor.get("shaft_torque_mean")[0]
-                history.append(returned)
-                if abs(returned - torque) <= self.tolerance:
-                    return iteration
+                yield iteration, speed, torque, returned
                 torque = returned
         finally:
             motor.freeFMUstate(states[0])
             compressor.freeFMUstate(states[1])
+
+    def iterative(self, t: float, h: float) -> int:
+        history = [self.compressor.get("shaft_torque_mean")[0]]           # first guess: the last step's torque
+        with closing(self.evaluations(t, h, MAX_ITERATIONS)) as evaluations:
+            for iteration, _, given, returned in evaluations:
+                history.append(returned)
+                if abs(returned - given) <= self.tolerance:
+                    return iteration
         raise CouplingFailure(f"diverged: no convergence to {self.tolerance:g} N.m within {MAX_ITERATIONS} "
                               f"iterations at t = {t:g} s (last step-mean torques "
                               f"{', '.join(f'{x:.9g}' for x in history[-4:])} N.m)")
