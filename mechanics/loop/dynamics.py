@@ -146,9 +146,11 @@ def equations_of_motion(pose, contacts, gas, m, dydt):
 
 
 @kernel
-def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m, out):
+def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure, geometry,
+                   memory, m, out):
     """Write the reported quantities of the output row (docs/model.md §3.4, §6.4); the per-region ones were written
-    by contact_loads, the real-gas ones are written by the chamber step (NaN here)."""
+    by contact_loads, the real-gas ones are written by the chamber step (NaN here). `pressures`: (p_L, p_T, p_b);
+    `suction_pressure`: p_s of the moment."""
     ax, ay, alpha, driving_torque = accelerations
     kinematics = reported_kinematics(pose, ax, ay, alpha, m)
     out[O.time] = t
@@ -169,7 +171,7 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
     out[O.stator_contact_moment] = contacts.stator_moment
     out[O.stator_gas_moment] = gas.stator_moment
     out[O.stator_reaction_moment] = contacts.stator_moment + gas.stator_moment
-    out[O.gap_moment] = gap_moment(pose, sides, tip, pressures[0], pressures[1], m)
+    out[O.gap_moment] = gap_moment(pose, sides, tip, pressures[0], pressures[1], suction_pressure, m)
     out[O.rotor_force_x] = contacts.rotor_fx
     out[O.rotor_force_y] = contacts.rotor_fy
     out[O.driving_torque] = driving_torque
@@ -282,15 +284,18 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
                                                  work)
         if leading.status != 0 or trailing.status != 0 or flows.refused != 0:
             status = GAS_STATE_INVALID
-        # the back chamber holds the back node's p_d of the moment (a moving boundary, docs/model.md §7.3.3)
-        pressures = (leading.pressure, trailing.pressure, boundary_nodes(c, t)[1].pressure)
+        # the boundary of the moment: the back chamber holds p_d (a moving boundary, docs/model.md §7.3.3)
+        suction, back = boundary_nodes(c, t)
+        pressures = (leading.pressure, trailing.pressure, back.pressure)
+        suction_pressure = suction.pressure
     else:
         pressures = table_pressures(pose, memory, m, ctx.pressure_table)
+        suction_pressure = m.suction_pressure
     gas = combine(basis, pressures[0], pressures[1], pressures[2], tip, pose.omega, m)
     accelerations = equations_of_motion(pose, contacts, gas, m, dydt)
     if report:
-        report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m,
-                       out)
+        report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure,
+                       geometry, memory, m, out)
         if real_gas:
             report_chambers(out, y, inputs, work, flows, leading, trailing, c, ctx.properties)
     return status
