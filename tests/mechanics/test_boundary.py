@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.loop.layout import GAS_BLOCK, WORK_IN
+from rotary_vane.mechanics.loop.layout import GAS_BLOCK, VANE_STATE_SIZE, WORK_IN
 from rotary_vane.thermo.chamber_state import LEADING_MASS, LEADING_TEMPERATURE
 from rotary_vane.thermo.fluid import Fluid
 
@@ -128,3 +128,15 @@ def test_a_state_saved_after_a_ramp_continues_held_whatever_ramp_followed(run_at
     run.advance(0.006)
     assert run.state[WORK_IN] == held
     assert run.boundary.back.pressure == 1.35e6
+
+
+def test_the_vane_sees_a_moved_discharge_pressure_in_its_back_chamber():
+    """A run whose p_d was moved to 1.4 MPa has the right-hand side of a run built at 1.4 MPa: the vane's
+    back-chamber pressure is the boundary's of the moment, not the parameters' (which it was before the boundary
+    followed the inputs into the vane loads)."""
+    moved = real_gas_run()
+    moved.set_boundary(**{**DEFAULT, "discharge_pressure": 1.4e6})
+    built = Simulation(CompressorParameters(discharge_pressure=1.4e6), constant_speed(1500.0), keep_history=False)
+    np.testing.assert_allclose(moved.state, built.state, rtol=1e-9)
+    rates = [run.evaluate(0.0, run.state)[1][:VANE_STATE_SIZE] for run in (moved, built)]
+    np.testing.assert_allclose(rates[0], rates[1], rtol=1e-7, atol=1e-9 * np.abs(rates[1]).max())
