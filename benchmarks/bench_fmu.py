@@ -18,7 +18,10 @@ as a ratio to it and as a real-time factor (simulated / wall time, > 1 is faster
    and a bare loop of the low-level `fmi2DoStep`; the glue per communication step is (bare doStep loop - core
    stepped alike) / steps.
 3. First-step latency: a fresh process with a warm cache, and with an empty cache folder (ROTARY_VANE_CACHE_DIR),
-   from `import fmpy` to the end of the first doStep (h = 1 ms), by phase.
+   from `import fmpy` to the end of the first doStep (h = 1 ms), by phase; each case `--repeats` times (an empty
+   folder each time), medians with the range of instantiate -> first doStep, and the CPU time of that span (what
+   it would take on an idle machine). `--latency-only` skips 1-2, and prints the machine's load averages before
+   and after.
 """
 from __future__ import annotations
 
@@ -129,7 +132,7 @@ def latency_worker(args: dict) -> dict:
     t0 = time.perf_counter()
     from fmpy import extract, read_model_description
     from fmpy.simulation import instantiate_fmu
-    t1 = time.perf_counter()
+    t1, cpu1 = time.perf_counter(), time.process_time()
     unzipdir = extract(args["fmu"])
     description = read_model_description(unzipdir)
     fmu = instantiate_fmu(unzipdir, description, "CoSimulation")
@@ -139,11 +142,12 @@ def latency_worker(args: dict) -> dict:
     fmu.exitInitializationMode()
     t3 = time.perf_counter()
     fmu.doStep(0.0, 1e-3)
-    t4 = time.perf_counter()
+    t4, cpu4 = time.perf_counter(), time.process_time()
     fmu.terminate()
     fmu.freeInstance()
     return {"import fmpy": t1 - t0, "extract + instantiate": t2 - t1, "initialize": t3 - t2,
-            "first doStep": t4 - t3, "instantiate -> first doStep": t4 - t1}
+            "first doStep": t4 - t3, "instantiate -> first doStep": t4 - t1,
+            "CPU instantiate -> first doStep": cpu4 - cpu1}
 
 
 def run_worker(arguments: dict, env: dict | None = None) -> dict:
@@ -197,23 +201,28 @@ def stepping(fmu: Path, stop: float, repeats: int) -> None:
           "fmpy at h = 0.1 ms <= 1.3x; glue <= 30 us per step")
 
 
-def latency(fmu: Path, without_kernels: Path | None) -> None:
-    heading("3. first-step latency of a fresh process (defaults: real gas, R134a)")
+def latency(fmu: Path, without_kernels: Path | None, repeats: int) -> None:
+    heading(f"3. first-step latency of a fresh process (defaults: real gas, R134a; medians of {repeats})")
+    phases = ("import fmpy", "extract + instantiate", "initialize", "first doStep", "instantiate -> first doStep",
+              "CPU instantiate -> first doStep")
     rows = []
-    with tempfile.TemporaryDirectory(prefix="rvc_cache_") as cache, \
-            tempfile.TemporaryDirectory(prefix="rvc_cache_") as other:
-        cases = [("empty cache folder", fmu, {"ROTARY_VANE_CACHE_DIR": cache}),
-                 ("warm (the same folder again)", fmu, {"ROTARY_VANE_CACHE_DIR": cache}),
-                 ("warm (the user's cache)", fmu, None)]
+    with tempfile.TemporaryDirectory(prefix="rvc_cache_") as folder:
+        def empty():
+            return {"ROTARY_VANE_CACHE_DIR": tempfile.mkdtemp(dir=folder)}
+        warm = empty()
+        cases = [("empty cache folder", fmu, empty),
+                 ("warm (the same folder again)", fmu, lambda: warm),
+                 ("warm (the user's cache)", fmu, lambda: None)]
         if without_kernels is not None:
-            cases.append(("empty cache folder, FMU built --no-kernels", without_kernels,
-                          {"ROTARY_VANE_CACHE_DIR": other}))
+            cases.append(("empty cache folder, FMU built --no-kernels", without_kernels, empty))
+        run_worker({"worker": "latency", "fmu": str(fmu)}, warm)            # fills the folder the warm case reads
         for label, path, env in cases:
-            r = run_worker({"worker": "latency", "fmu": str(path)}, env)
-            rows.append([label] + [f"{r[k]:.3f}" for k in ("import fmpy", "extract + instantiate", "initialize",
-                                                          "first doStep", "instantiate -> first doStep")])
+            runs = [run_worker({"worker": "latency", "fmu": str(path)}, env()) for _ in range(repeats)]
+            total = [r["instantiate -> first doStep"] for r in runs]
+            rows.append([label] + [f"{statistics.median(r[k] for r in runs):.3f}" for k in phases]
+                        + [f"{min(total):.3f}-{max(total):.3f}"])
     print(table(["case", "import fmpy [s]", "extract+instantiate [s]", "initialize [s]", "first doStep [s]",
-                 "instantiate -> 1st step [s]"], rows))
+                 "instantiate -> 1st step [s]", "its CPU time [s]", "range [s]"], rows))
     print("targets of issue 9: warm <= 1 s, empty cache <= 5 s (instantiate -> end of the first doStep)")
 
 
@@ -229,6 +238,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per case (median reported)")
     parser.add_argument("--stop-time", type=float, default=1.0, help="simulated time per run [s]")
     parser.add_argument("--quick", action="store_true", help="smoke run: 0.02 s simulated, 1 repeat")
+    parser.add_argument("--latency-only", action="store_true", help="only the first-step latency (3.)")
     parser.add_argument(WORKER_FLAG, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
@@ -246,8 +256,11 @@ def main() -> None:
             parser.error(f"'--fmu' = {str(args.fmu)!r} is not a file")
         without_kernels = None if args.fmu else build_fmu(Path(folder) / "no_kernels", "--no-kernels")
         print(f"FMU: {fmu}")
-        stepping(fmu, stop, repeats)
-        latency(fmu, without_kernels)
+        if not args.latency_only:
+            stepping(fmu, stop, repeats)
+        print(f"load averages (1, 5, 15 min) before: {os.getloadavg()}")
+        latency(fmu, without_kernels, repeats)
+        print(f"load averages after: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

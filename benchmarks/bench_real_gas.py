@@ -89,7 +89,7 @@ def _time_chamber_model(n, t, y, memory, rates, arrays, states_only):
         if states_only:
             total += chamber_fluid_states(y, GAS_BLOCK, inputs, c, ctx.properties)[0].pressure
         else:
-            chamber_rates(y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, rates, ctx.flow_work[0])
+            chamber_rates(0.0, y, GAS_BLOCK, inputs, c, ctx.properties, ctx.nozzles, rates, ctx.flow_work[0])
             total += ctx.flow_work[0].mass_flow[PATH.discharge]
     return total
 

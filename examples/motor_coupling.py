@@ -52,6 +52,7 @@ import math
 import sys
 import time
 import xml.etree.ElementTree as ElementTree
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -119,6 +120,8 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                              "mean load). Below about 2e-4 N.m the step-mean torque is not a smooth function of "
                              "the speed (the compressor's adaptive integrator restarts at every step and takes "
                              "other step sequences), so tighter values can cycle without converging")
+    parser.add_argument("--pressure-model", choices=("ideal_gas_table", "real_gas"), default="ideal_gas_table",
+                        help="the compressor's pressure_model (the README's study figures: ideal_gas_table)")
     parser.add_argument("--no-libcosim", action="store_true", help="skip the libcosim runs")
     parser.add_argument("--quick", action="store_true",
                         help=f"short configuration for tests: steps {','.join(f'{h:g}' for h in QUICK['steps'])} s,"
@@ -220,10 +223,12 @@ class Run:
 class CoupledSystem:
     """The motor and compressor FMUs (one instance each) and the three masters."""
 
-    def __init__(self, fmu_dir: Path, log: harness.FmuLog, tolerance: float):
+    def __init__(self, fmu_dir: Path, log: harness.FmuLog, tolerance: float,
+                 pressure_model: str = "ideal_gas_table"):
         self.motor = Slave(fmu_dir / f"{harness.MOTOR}.fmu", "motor", log)
         self.compressor = Slave(fmu_dir / f"{harness.COMPRESSOR}.fmu", "compressor", log)
         self.tolerance = tolerance
+        self.pressure_model = pressure_model
         self.rotor_inertia = self.compressor.start_value("rotor_inertia")       # J2 of the compressor FMU
         self.inertia = self.motor.start_value("motor_inertia") + self.rotor_inertia   # the shaft's [kg.m2]
 
@@ -239,11 +244,10 @@ class CoupledSystem:
                 "initial_speed": 0.0}
 
     def compressor_values(self) -> dict:
-        """The compressor's rotor inertia is in the motor's; the gas loads come from the Level 0.5 table: with the
-        real-gas chambers the step-mean torque jumps by up to 0.01 N.m for a 0.002 rpm change of the speed input when
-        a valley crossing falls inside the step, and the iterative master cannot reach its 1e-3 N.m tolerance (also
-        at the reference tolerance)."""
-        return {"rotor_inertia": 0.0, "shaft_speed": 0.0, "pressure_model": "ideal_gas_table"}
+        """The compressor's rotor inertia is in the motor's; the gas loads of the pressure model chosen (the study's
+        figures in the README are of the Level 0.5 table; examples/coupling_convergence.py gives the iterative
+        master's convergence with both)."""
+        return {"rotor_inertia": 0.0, "shaft_speed": 0.0, "pressure_model": self.pressure_model}
 
     def synchronous_speed(self) -> float:
         """60 f / p [rpm] of the motor FMU's default supply frequency and pole pairs."""
@@ -280,29 +284,39 @@ class CoupledSystem:
         self.compressor.step(t, h)
         return 1
 
-    def iterative(self, t: float, h: float) -> int:
+    def evaluations(self, t: float, h: float, most: int):
+        """The iterative master's evaluations of one step from the states at t (saved, restored before each further
+        evaluation, freed when the caller closes this generator): the motor steps with a load torque, the compressor
+        to the motor's new speed; yields (iteration, that speed, the torque the motor was given, the torque the
+        compressor returned). The first guess is the last step's torque, each next one the torque returned."""
         motor, compressor = self.motor.fmu, self.compressor.fmu
         states = (motor.getFMUstate(), compressor.getFMUstate())
-        torque = self.compressor.get("shaft_torque_mean")[0]            # first guess: the last step's torque
-        history = [torque]
+        torque = self.compressor.get("shaft_torque_mean")[0]
         try:
-            for iteration in range(1, MAX_ITERATIONS + 1):
+            for iteration in range(1, most + 1):
                 if iteration > 1:
                     motor.setFMUstate(states[0])
                     compressor.setFMUstate(states[1])
                 self.motor.set("load_torque", torque)
                 self.motor.step(t, h)
                 self.check_speed(t + h)
-                self.compressor.set("shaft_speed", self.motor.get("shaft_speed")[0])
+                speed = self.motor.get("shaft_speed")[0]
+                self.compressor.set("shaft_speed", speed)
                 self.compressor.step(t, h)
                 returned = self.compressor.get("shaft_torque_mean")[0]
-                history.append(returned)
-                if abs(returned - torque) <= self.tolerance:
-                    return iteration
+                yield iteration, speed, torque, returned
                 torque = returned
         finally:
             motor.freeFMUstate(states[0])
             compressor.freeFMUstate(states[1])
+
+    def iterative(self, t: float, h: float) -> int:
+        history = [self.compressor.get("shaft_torque_mean")[0]]           # first guess: the last step's torque
+        with closing(self.evaluations(t, h, MAX_ITERATIONS)) as evaluations:
+            for iteration, _, given, returned in evaluations:
+                history.append(returned)
+                if abs(returned - given) <= self.tolerance:
+                    return iteration
         raise CouplingFailure(f"diverged: no convergence to {self.tolerance:g} N.m within {MAX_ITERATIONS} "
                               f"iterations at t = {t:g} s (last step-mean torques "
                               f"{', '.join(f'{x:.9g}' for x in history[-4:])} N.m)")
@@ -643,7 +657,7 @@ def main(argv=None) -> int:
     args = parse_arguments(argv)
     fmu_dir = harness.ensure_fmus(args.fmu_dir)
     out = harness.output_folder(args.out)
-    system = CoupledSystem(fmu_dir, harness.FmuLog(args.verbose), args.iteration_tolerance)
+    system = CoupledSystem(fmu_dir, harness.FmuLog(args.verbose), args.iteration_tolerance, args.pressure_model)
     synchronous = system.synchronous_speed()
     steps, stop = args.steps, args.stop_time
     for power in (args.motor_power, args.undersized_power):

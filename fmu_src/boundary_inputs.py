@@ -1,6 +1,7 @@
 """The compressor FMU's boundary inputs (suction and discharge conditions) and its conservative flow outputs.
 
-Inputs (continuous, held over each communication step: mechanics.gas.boundary): `suction_pressure`,
+Inputs (continuous; held over each communication step, or moved linearly from their last values as the speed
+when `interpolate_speed` is true: mechanics.gas.boundary, docs/model.md §7.3.3): `suction_pressure`,
 `discharge_pressure`, and the suction state by `suction_temperature` or by `suction_enthalpy`, as the fixed
 parameter `suction_state_input` says ("temperature", the default, or "enthalpy"; the other input is ignored). Their
 start values are the defaults of the parameters of the same names (mechanics.parameters; `suction_enthalpy`:
@@ -76,7 +77,8 @@ def boundary_input_variable(name: str) -> RealVariable:
     spec = BOUNDARY_INPUTS[name]
     return RealVariable(name, spec.unit, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
                         minimum=spec.minimum, maximum=spec.maximum,
-                        description=f"{spec.description}; held over each communication step")
+                        description=f"{spec.description}; held or interpolated over each communication step "
+                                    f"as interpolate_speed says")
 
 
 def check_suction_state_input(value) -> None:

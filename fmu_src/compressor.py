@@ -3,7 +3,7 @@
 A thin map of FMI calls onto `mechanics.Simulation` (one per instance): parameters generated from the parameter
 declarations, outputs from the output declarations (mechanics.loop.outputs: end-of-step values read from the last
 output row, per-revolution figures from the last completed revolution the time loop summarised), the speed
-input held or ramped over each communication step, the whole simulation state saved and restored. Outputs are
+and boundary inputs held or ramped over each communication step, the whole simulation state saved and restored. Outputs are
 read when the importer asks for them: a step does nothing in Python beyond one call of the time loop.
 """
 from __future__ import annotations
@@ -116,8 +116,8 @@ class CompressorSlave(GuardedSlave):
         self.register_variable(Boolean(
             "interpolate_speed", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
             initial=Fmi2Initial.exact,
-            description="true: the speed moves linearly from its last value to the input over each step "
-                        "(continuous speed); false: the input is held over the step"))
+            description="true: the speed and the boundary inputs move linearly from their last values to the "
+                        "inputs over each step (continuous inputs); false: the inputs are held over the step"))
         self.register_variable(declared_parameter("fidelity", dict(
             choices=FIDELITIES, description="detailed: every vane impact resolved; periodic_map: the detailed "
                                              "model's periodic steady state tabulated over 10-120 % of "
@@ -227,15 +227,14 @@ class CompressorSlave(GuardedSlave):
         if self.map_run is not None:
             return self._advance_map(end_time, step_size)
         simulation = self.simulation
-        try:
-            simulation.set_boundary(**self._boundary())
-        except ValueError as error:
-            raise StepFailed(str(error)) from None
         work_before, angle_before = simulation.state[WORK_IN], simulation.rotor_angle
         flows_before = flow_results(simulation, None, step_size)
         last_before = simulation.last_revolution
-        try:
-            simulation.advance(end_time, speed_rpm=self.shaft_speed, interpolate=self.interpolate_speed)
+        try:       # the speed and the boundary inputs held or interpolated over the step alike
+            simulation.advance(end_time, speed_rpm=self.shaft_speed, interpolate=self.interpolate_speed,
+                               boundary=self._boundary())
+        except ValueError as error:           # a boundary input the run cannot take, refused before any change
+            raise StepFailed(str(error)) from None
         except IntegrationError as error:
             raise StepFailed(f"the simulation stopped: {error}") from None
         work, angle = simulation.state[WORK_IN] - work_before, simulation.rotor_angle - angle_before

@@ -15,7 +15,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..thermo.chamber_model import LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE
+from ..thermo.chamber_model import (LEADING_MASS, LEADING_TEMPERATURE, TRAILING_MASS, TRAILING_TEMPERATURE,
+                                   boundary_nodes)
 from ..thermo.flow_paths import FlowNode
 from ..thermo.fluid import Fluid
 from ..thermo.property_table import describe_status, table_from_arrays, table_status
@@ -23,7 +24,8 @@ from ..thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_a
 
 from .geometry.chamber_geometry import sector_table
 from .geometry.displacement import displacement
-from .gas.boundary import Boundary, boundary_of, hold_boundary, moved_reference, solve_boundary
+from .gas.boundary import (Boundary, boundary_of, hold_boundary, moved_reference, ramp_boundary, ramp_duration,
+                           solve_boundary)
 from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
 from .geometry.stator import law_arguments
@@ -283,10 +285,15 @@ class Simulation:
         """Hold the suction state (p_s [Pa] with T_s [K] or h_s [J/kg]) and the discharge pressure p_d [Pa] from
         the current time on (mechanics.gas.boundary: the boundary nodes solved on the property table, no CoolProp). At
         the start time, before any advance, the chambers are filled again with the new suction gas. A value the
-        run cannot take raises ValueError naming it, before anything changes (mechanics.gas.boundary.solve_boundary)."""
+        run cannot take raises ValueError naming it, before anything changes (mechanics.gas.boundary.solve_boundary).
+        `advance(boundary=...)` takes the same values, held or interpolated over the advance."""
         nodes = solve_boundary(self.params, self.gas, self.boundary, suction_pressure, discharge_pressure,
                                suction_temperature, suction_enthalpy)
-        if nodes is None:                                 # unchanged
+        self._hold_nodes(nodes)
+
+    def _hold_nodes(self, nodes: Boundary | None) -> None:
+        """Hold solved nodes from the current time on (None: unchanged; a ramp that ended stays at its end)."""
+        if nodes is None:
             return
         self._hold(nodes)
         self.control[CONTROL_HISTORY] = 0                 # a jump of the right-hand side: restart ABM4
@@ -296,24 +303,45 @@ class Simulation:
 
     def _hold(self, nodes: Boundary) -> None:
         """Hold `nodes` and refer the per-revolution figures to them (unless they are the ones held)."""
-        if nodes == self.boundary:
+        if nodes == self.boundary and ramp_duration(self.gas.chambers) == 0.0:
             return
         hold_boundary(self.gas, nodes)
+        self._refer_figures(nodes)
+
+    def _refer_figures(self, nodes: Boundary) -> None:
+        """Refer the per-revolution figures to the boundary `nodes` (held, or reached at the end of a ramp)."""
         if self.gas.reference is not None:
             self.gas_reference = (self.gas.reference if nodes == self._initial_boundary else
                                   moved_reference(self.gas.reference, self.gas, nodes))
 
+    def _boundary_for_advance(self, end_time: float, nodes: Boundary | None, interpolate: bool) -> None:
+        """The boundary over an advance to end_time: the new nodes held from now on, or (interpolate) every node
+        field moved linearly from its value now to the new one at end_time, as the speed (docs/model.md §7.3.3)."""
+        if not (interpolate and end_time > self.time and nodes is not None):
+            self._hold_nodes(nodes)
+            return
+        now = Boundary(*boundary_nodes(self.gas.chambers[0], self.time))      # the boundary of the moment
+        ramp_boundary(self.gas, now, nodes, self.time, end_time - self.time)
+        self.control[CONTROL_HISTORY] = 0                 # a kink of the right-hand side: restart ABM4
+        self._refer_figures(nodes)
+
     # time loop ----------------------------------------------------------------------------------------
-    def advance(self, end_time: float, speed_rpm: float | None = None, interpolate: bool = False) -> None:
+    def advance(self, end_time: float, speed_rpm: float | None = None, interpolate: bool = False,
+                boundary: dict | None = None) -> None:
         """Integrate to `end_time` [s]. With `speed_rpm`, the speed over this advance is that value held
-        (interpolate=False) or moved linearly from the current speed to it (interpolate=True)."""
+        (interpolate=False) or moved linearly from the current speed to it (interpolate=True); with `boundary`
+        (set_boundary's keywords), the boundary likewise. A boundary the run cannot take raises ValueError naming
+        the input before anything changes."""
         if not (isinstance(end_time, (int, float, np.floating)) and math.isfinite(end_time)) \
                 or end_time < self.time:
             raise ValueError(f"'end_time' = {end_time!r} s is invalid: allowed a finite time >= the current time "
                              f"{self.time!r} s")
+        nodes = None if boundary is None else solve_boundary(self.params, self.gas, self.boundary, **boundary)
         key = self._grid_key(float(end_time))          # of the state before the input acts on it
         if speed_rpm is not None:
             self._speed_for_advance(float(end_time), speed_rpm, interpolate)
+        if boundary is not None:
+            self._boundary_for_advance(float(end_time), nodes, interpolate)
         if end_time == self.time:
             return
         replayed = self._start_grid(key)
@@ -521,7 +549,8 @@ class Simulation:
 
     @property
     def boundary_nodes(self) -> np.ndarray:
-        """The boundary nodes held, as one array (suction node, then back node: FlowNode fields)."""
+        """The boundary nodes held, as one array (suction node, then back node: FlowNode fields); an advance ends
+        every ramp it starts, so between advances this is the whole boundary."""
         return np.array([*self.boundary.suction, *self.boundary.back])
 
     def set_state(self, saved: SimulationState) -> None:

@@ -16,9 +16,10 @@ step keeps to rounding.
 Idle lobes are the suction plenum: each is open to its own suction port all the time and has a constant volume, so
 its state stays at suction conditions; the valley-seal leaks go there, a trailing chamber that becomes idle is
 vented there and a new leading chamber is filled from there. The discharge plenum and the back chamber hold gas
-at p_d on the suction isentrope (h_2s; docs/model.md §7.4). These boundary states are the record's today
-(`boundary_nodes`); chamber_rates writes them into the network's working record with the chambers' states, where
-the flow routines read every node's state.
+at p_d on the suction isentrope (h_2s; docs/model.md §7.4). These boundary states are the record's: held, or moved
+linearly over an advance from the values at its start (`boundary_nodes` at time t; docs/model.md §7.3.3);
+chamber_rates writes them into the network's working record with the chambers' states, where the flow routines
+read every node's state.
 """
 from __future__ import annotations
 
@@ -39,9 +40,13 @@ from .property_table import table_properties, table_state
 
 # the constants the kernels read by name; the flow paths' constants are resolved from named values into per-path
 # arrays (`PATH_FIELDS`, thermo.flow_paths)
+# (the boundary nodes' fields: the values held, or reached at the end of a ramp; `<field>_from`: their values at the
+# ramp's start, `ramp_start`/`ramp_duration` [s] its time span, 0 s when held: boundary_nodes)
+NODE_FIELDS = ("suction_temperature", "suction_density", "suction_pressure", "suction_enthalpy",
+               "discharge_temperature", "discharge_density", "discharge_pressure", "discharge_enthalpy")
+RAMP_FIELDS = (*(f"{name}_from" for name in NODE_FIELDS), "ramp_start", "ramp_duration")
 CONSTANT_FIELDS = (
-    "suction_pressure", "suction_temperature", "suction_density", "suction_enthalpy",
-    "discharge_pressure", "discharge_temperature", "discharge_density", "discharge_enthalpy",
+    *NODE_FIELDS, *RAMP_FIELDS,
     "dead_volume", "suction_close_angle", "atol_temperature", "atol_mass", "atol_energy",
 )
 PATH_FIELDS = ("size", "flow_length", "width", "law", "coefficient")
@@ -64,6 +69,8 @@ def chamber_constants(paths=FLOW_PATHS, **values) -> np.ndarray:
     rows name must be given (SI units; laws as thermo.leakage codes); numba reads its fields by name. The path table
     is resolved into arrays indexed by path: the values its rows name (`path_law[p]`, ...) and its integer tables
     (thermo.flow_paths.network_tables: `path_source[p]`, ..., `pair_first[k]`, `pair_second[k]`)."""
+    values = {**{f"{name}_from": values[name] for name in NODE_FIELDS if name in values},
+              "ramp_start": 0.0, "ramp_duration": 0.0, **values}          # held unless a ramp is given
     required = set(CONSTANT_FIELDS) | path_value_names(paths)
     missing = required - set(values)
     unknown = set(values) - required
@@ -116,10 +123,28 @@ def chamber_flow_work(paths=FLOW_PATHS) -> np.ndarray:
 
 
 @kernel
-def boundary_nodes(c):
-    """(suction, back) FlowNodes: the suction plenum (and idle lobes) and the discharge plenum / back chamber."""
-    return (FlowNode(c.suction_temperature, c.suction_density, c.suction_pressure, c.suction_enthalpy),
-            FlowNode(c.discharge_temperature, c.discharge_density, c.discharge_pressure, c.discharge_enthalpy))
+def _ramped(start, end, remaining):
+    """A field moved linearly from `start` to `end`, `remaining` the fraction of the ramp still ahead (exactly `end`
+    at 0)."""
+    return end + (start - end) * remaining
+
+
+@kernel
+def boundary_nodes(c, t):
+    """(suction, back) FlowNodes at time t: the suction plenum (and idle lobes) and the discharge plenum / back
+    chamber. Held (ramp_duration = 0), or during a ramp every field x = x_1 + (x_0 - x_1)(1 - w), w = (t - t_0)/D
+    clipped to [0, 1] (docs/model.md §7.3.3: the inputs interpolated over a step, as the speed)."""
+    remaining = 0.0
+    if c.ramp_duration > 0.0:
+        remaining = min(max(1.0 - (t - c.ramp_start) / c.ramp_duration, 0.0), 1.0)
+    return (FlowNode(_ramped(c.suction_temperature_from, c.suction_temperature, remaining),
+                     _ramped(c.suction_density_from, c.suction_density, remaining),
+                     _ramped(c.suction_pressure_from, c.suction_pressure, remaining),
+                     _ramped(c.suction_enthalpy_from, c.suction_enthalpy, remaining)),
+            FlowNode(_ramped(c.discharge_temperature_from, c.discharge_temperature, remaining),
+                     _ramped(c.discharge_density_from, c.discharge_density, remaining),
+                     _ramped(c.discharge_pressure_from, c.discharge_pressure, remaining),
+                     _ramped(c.discharge_enthalpy_from, c.discharge_enthalpy, remaining)))
 
 
 @kernel
@@ -138,8 +163,9 @@ def chamber_fluid_states(y, block, inputs, c, table):
 
 
 @kernel
-def chamber_rates(y, block, inputs, c, table, nozzles, rates, work):
-    """Fill the state block's derivatives (from index `block` of `rates`) at the state block of y (from `block`)
+def chamber_rates(t, y, block, inputs, c, table, nozzles, rates, work):
+    """Fill the state block's derivatives (from index `block` of `rates`) at time t and the state block of y (from
+    `block`)
     (docs/model.md §7.3-§7.4); return (FlowStatus, leading FluidState, trailing FluidState). The nodes' states go
     into the flow network's working values `work` (thermo.flow_paths.flow_work), the flows of its paths
     (path_flows, then in `work.mass_flow`) are summed per node (sum_flows) into dm/dt and the enthalpy inflow of
@@ -153,7 +179,7 @@ def chamber_rates(y, block, inputs, c, table, nozzles, rates, work):
     t_t = y[block + TRAILING_TEMPERATURE]
     density_leading = y[block + LEADING_MASS] / volume_leading
     density_trailing = y[block + TRAILING_MASS] / volume_trailing
-    suction, back = boundary_nodes(c)
+    suction, back = boundary_nodes(c, t)
     set_node(work, SUCTION, suction)
     set_node(work, LEADING, FlowNode(t_l, density_leading, leading.pressure, leading.enthalpy))
     set_node(work, TRAILING, FlowNode(t_t, density_trailing, trailing.pressure, trailing.enthalpy))
@@ -183,8 +209,8 @@ def chamber_energy(y, block, inputs, c, table):
 
 
 @kernel
-def switch_chambers(y, block, old_inputs, new_inputs, c, table):
-    """Chamber bookkeeping when the vane crosses a valley (docs/model.md §7.2):
+def switch_chambers(t, y, block, old_inputs, new_inputs, c, table):
+    """Chamber bookkeeping when the vane crosses a valley at time t (docs/model.md §7.2):
 
     the leading chamber (now the dead volume at the valley) becomes the new trailing chamber: its gas fills the new
     trailing volume, expanding adiabatically (T from u at the new density) if that volume is larger; if it is smaller
@@ -205,7 +231,7 @@ def switch_chambers(y, block, old_inputs, new_inputs, c, table):
     trailing_mass = y[block + TRAILING_MASS]
     leading_energy = leading.enthalpy - leading.pressure * old_leading / leading_mass
     trailing_energy = trailing.enthalpy - trailing.pressure * old_trailing / trailing_mass
-    suction = boundary_nodes(c)[0]
+    suction = boundary_nodes(c, t)[0]
     suction_properties = table_properties(suction.temperature, suction.density, table)
     suction_energy = suction_properties[1] - suction_properties[0] / suction.density
     filled_mass = suction.density * new_leading

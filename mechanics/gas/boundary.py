@@ -5,7 +5,8 @@ boundary nodes in the chamber model's constants record: the suction node (the su
 and the back node (discharge plenum and back chamber, p_d on the suction isentrope). `solve_boundary` validates a
 new boundary and solves its nodes on the property table (thermo.boundary_states, no CoolProp); `hold_boundary`
 writes them into the record, which the compiled loop reads at each evaluation, so the new boundary is held from
-the current time on. The pressure-table models (Level 0/0.5), and a real-gas run on the tables of one operating
+the current time on; `ramp_boundary` moves them linearly over an advance instead (an input interpolated over a
+step, as the speed: docs/model.md §7.3.3). The pressure-table models (Level 0/0.5), and a real-gas run on the tables of one operating
 point, take no other boundary than their parameters': a changed value is refused by name.
 """
 from __future__ import annotations
@@ -38,10 +39,24 @@ def boundary_of(chambers) -> Boundary:
 
 
 def hold_boundary(gas, nodes: Boundary) -> None:
-    """Write the nodes into the constants record the compiled loop reads (in place: the loop's argument)."""
-    for names, node in ((SUCTION_FIELDS, nodes.suction), (BACK_FIELDS, nodes.back)):
-        for name, value in zip(names, node):
+    """Write the nodes into the constants record the compiled loop reads (in place: the loop's argument), held."""
+    ramp_boundary(gas, nodes, nodes, 0.0, 0.0)
+
+
+def ramp_boundary(gas, start: Boundary, end: Boundary, start_time: float, duration: float) -> None:
+    """Move the nodes linearly from `start` at `start_time` to `end` at `start_time + duration` [s], held after
+    it (thermo.chamber_model.boundary_nodes; duration 0: `end` held)."""
+    for names, begin, node in ((SUCTION_FIELDS, start.suction, end.suction), (BACK_FIELDS, start.back, end.back)):
+        for name, first, value in zip(names, begin, node):
             gas.chambers[name][0] = value
+            gas.chambers[f"{name}_from"][0] = first
+    gas.chambers["ramp_start"][0] = start_time
+    gas.chambers["ramp_duration"][0] = duration
+
+
+def ramp_duration(chambers) -> float:
+    """The duration [s] of the last ramp the record holds (0: the nodes are held)."""
+    return float(chambers["ramp_duration"][0])
 
 
 def _refuse(name, value, unit, allowed):

@@ -157,19 +157,20 @@ def _mouth_gap_moment(side, s, pose, pressure, m):
 
 
 @kernel
-def gap_moment(pose, sides, tip, leading_pressure, trailing_pressure, m):
+def gap_moment(pose, sides, tip, leading_pressure, trailing_pressure, suction_pressure, m):
     """Moment about O of the chamber pressures on the gaps that bound the chambers but belong to no body: the tip
     gap (P_V = T + rho n to S(u*)), the end-valley gap (R_r to R_r + c_S, leading chamber against the idle lobe
     at suction) and the two slot-mouth gaps:
 
     M_gap = 1/2 L (p_L - p_T)(|P_V|^2 - |S(u*)|^2) + 1/2 L (p_L - p_s)((R_r + c_S)^2 - R_r^2) + M_mouth,+ + M_mouth,-
     A diagnostic, not a load: it closes the global angular-momentum balance <T_d> = <lambda3 + M_gas,stator + M_gap>
-    (docs/model.md §11) when the tip does not sit exactly on the stator.
+    (docs/model.md §11) when the tip does not sit exactly on the stator. p_s: the suction pressure of the moment
+    (a moving boundary, docs/model.md §7.3.3).
     """
     point = tip.candidate
     tip_gap = 0.5 * m.axial_length * (leading_pressure - trailing_pressure) * (
         point.point_x * point.point_x + point.point_y * point.point_y - tip.stator_radius_squared)
-    valley = 0.5 * m.axial_length * (leading_pressure - m.suction_pressure) * (
+    valley = 0.5 * m.axial_length * (leading_pressure - suction_pressure) * (
         (m.rotor_radius + m.stator_clearance) ** 2 - m.rotor_radius ** 2)
     return (tip_gap + valley + _mouth_gap_moment(1.0, sides[0], pose, leading_pressure, m)
             + _mouth_gap_moment(-1.0, sides[1], pose, trailing_pressure, m))

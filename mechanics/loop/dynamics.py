@@ -15,8 +15,8 @@ import numpy as np
 
 from ...kernels.kernel import kernel
 from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_SUCTION,
-                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, chamber_energy,
-                                     chamber_rates, volumes_with_dead_volume)
+                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, boundary_nodes,
+                                     chamber_energy, chamber_rates, volumes_with_dead_volume)
 from ...thermo.flow_paths import PATH
 from ...thermo.leakage import parabolic_flank_length, tapered_gap_length
 from ...thermo.property_table import PropertyTable, table_quality
@@ -146,9 +146,11 @@ def equations_of_motion(pose, contacts, gas, m, dydt):
 
 
 @kernel
-def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m, out):
+def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure, geometry,
+                   memory, m, out):
     """Write the reported quantities of the output row (docs/model.md §3.4, §6.4); the per-region ones were written
-    by contact_loads, the real-gas ones are written by the chamber step (NaN here)."""
+    by contact_loads, the real-gas ones are written by the chamber step (NaN here). `pressures`: (p_L, p_T, p_b);
+    `suction_pressure`: p_s of the moment."""
     ax, ay, alpha, driving_torque = accelerations
     kinematics = reported_kinematics(pose, ax, ay, alpha, m)
     out[O.time] = t
@@ -169,7 +171,7 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
     out[O.stator_contact_moment] = contacts.stator_moment
     out[O.stator_gas_moment] = gas.stator_moment
     out[O.stator_reaction_moment] = contacts.stator_moment + gas.stator_moment
-    out[O.gap_moment] = gap_moment(pose, sides, tip, pressures[0], pressures[1], m)
+    out[O.gap_moment] = gap_moment(pose, sides, tip, pressures[0], pressures[1], suction_pressure, m)
     out[O.rotor_force_x] = contacts.rotor_fx
     out[O.rotor_force_y] = contacts.rotor_fy
     out[O.driving_torque] = driving_torque
@@ -261,13 +263,13 @@ def chamber_inputs_at(t, y, ctx, memory):
 
 
 @kernel
-def chamber_rates_at(y, inputs, ctx, dydt):
-    """The chamber block's rates (into dydt from GAS_BLOCK) at the chamber geometry `inputs` of a pose
-    (thermo.chamber_model.chamber_rates); returns (0 or GAS_STATE_INVALID, FlowStatus, leading and trailing
+def chamber_rates_at(t, y, inputs, ctx, dydt):
+    """The chamber block's rates (into dydt from GAS_BLOCK) at time t (the boundary of the moment) and the chamber
+    geometry `inputs` of a pose (thermo.chamber_model.chamber_rates); returns (0 or GAS_STATE_INVALID, FlowStatus, leading and trailing
     FluidState). Needs no contact or gas load: the implicit chamber stages of mechanics.loop.integrators iterate it
     at a fixed pose."""
-    flows, leading, trailing = chamber_rates(y, GAS_BLOCK, inputs, ctx.chambers[0], ctx.properties, ctx.nozzles, dydt,
-                                             ctx.flow_work[0])
+    flows, leading, trailing = chamber_rates(t, y, GAS_BLOCK, inputs, ctx.chambers[0], ctx.properties, ctx.nozzles,
+                                             dydt, ctx.flow_work[0])
     status = GAS_STATE_INVALID if leading.status != 0 or trailing.status != 0 or flows.refused != 0 else 0
     return status, flows, leading, trailing
 
@@ -290,17 +292,21 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
         work = ctx.flow_work[0]
-        gas_status, flows, leading, trailing = chamber_rates_at(y, inputs, ctx, dydt)
+        gas_status, flows, leading, trailing = chamber_rates_at(t, y, inputs, ctx, dydt)
         if gas_status != 0:
             status = gas_status
-        pressures = (leading.pressure, trailing.pressure, m.discharge_pressure)
+        # the boundary of the moment: the back chamber holds p_d (a moving boundary, docs/model.md §7.3.3)
+        suction, back = boundary_nodes(c, t)
+        pressures = (leading.pressure, trailing.pressure, back.pressure)
+        suction_pressure = suction.pressure
     else:
         pressures = table_pressures(pose, memory, m, ctx.pressure_table)
+        suction_pressure = m.suction_pressure
     gas = combine(basis, pressures[0], pressures[1], pressures[2], tip, pose.omega, m)
     accelerations = equations_of_motion(pose, contacts, gas, m, dydt)
     if report:
-        report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, geometry, memory, m,
-                       out)
+        report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure,
+                       geometry, memory, m, out)
         if real_gas:
             report_chambers(out, y, inputs, work, flows, leading, trailing, c, ctx.properties)
     return status

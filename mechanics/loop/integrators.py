@@ -445,14 +445,14 @@ def _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters):
     rates = work_rows[W_NEWTON]
     base = CHAMBER_STATES * CHAMBER_STATES
     copy_values(perturbed, 0, y, 0, y.size)
-    failure = chamber_rates_at(perturbed, inputs, ctx, rates)[0]
+    failure = chamber_rates_at(t, perturbed, inputs, ctx, rates)[0]
     for q in range(CHAMBER_STATES):
         history[H_JACOBIAN, base + q] = rates[GAS_BLOCK + q]
     for p in range(CHAMBER_STATES):
         i = GAS_BLOCK + p
         delta = math.sqrt(np.finfo(np.float64).eps) * max(abs(y[i]), 1e3 * _tolerance(i, 0.0, m, c))
         perturbed[i] = y[i] + delta
-        failure |= chamber_rates_at(perturbed, inputs, ctx, rates)[0]
+        failure |= chamber_rates_at(t, perturbed, inputs, ctx, rates)[0]
         perturbed[i] = y[i]
         for q in range(CHAMBER_STATES):
             history[H_JACOBIAN, CHAMBER_STATES * q + p] = (rates[GAS_BLOCK + q] - history[H_JACOBIAN, base + q]) / delta
@@ -534,7 +534,7 @@ def _implicit_chamber_stage(t, stage, h_gamma, ctx, memory, history, work_rows, 
     for iteration in range(1, NEWTON_ITERATION_LIMIT + 1):
         if iteration == NEWTON_SLOW:
             history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
-        failure = chamber_rates_at(stage, inputs, ctx, update)[0]
+        failure = chamber_rates_at(t, stage, inputs, ctx, update)[0]
         counters[NEWTON_ITERATIONS] += 1
         if failure != 0:
             return failure, False
@@ -705,7 +705,7 @@ def _cross_valley(t, y, memory, ctx, real_gas):
     old_inputs = chamber_inputs_at(t, y, ctx, memory)
     memory[MEM_LOBE_START] += 2.0 * math.pi / m.lobes
     memory[MEM_LOBE_COUNT] += 1.0
-    return switch_chambers(y, GAS_BLOCK, old_inputs, chamber_inputs_at(t, y, ctx, memory), ctx.chambers[0],
+    return switch_chambers(t, y, GAS_BLOCK, old_inputs, chamber_inputs_at(t, y, ctx, memory), ctx.chambers[0],
                            ctx.properties)
 
 

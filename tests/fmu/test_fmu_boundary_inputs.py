@@ -9,6 +9,7 @@ import pytest
 import fmu_helpers as H
 
 CONSERVATION = 1e-9                # relative: sums of step means x h against the cumulative outputs
+MOVED_PRESSURE = 1.3679e6          # Pa: p_d 50 kPa above its start value
 
 
 def test_declared_ranges_are_those_of_the_shipped_r134a_tables(fmu):
@@ -60,6 +61,15 @@ assert wet.initialize(shaft_speed=1500.0, suction_state_input="enthalpy", suctio
     wet.messages()
 out["wet"] = wet.run(0.0, 1e-3, 45)[-1]
 wet.close()
+# p_d moved by 50 kPa in the fifth 1 ms step at 1500 rpm, held or interpolated over it
+for interpolate in (True, False):
+    moved = H.Host($fmu)
+    assert moved.initialize(shaft_speed=1500.0, interpolate_speed=interpolate) == H.OK, moved.messages()
+    moved.run(0.0, 1e-3, 4)
+    moved.set(discharge_pressure=$moved_pressure)
+    assert moved.step(4e-3, 1e-3) == H.OK, moved.messages()
+    out[f"moved interpolate={interpolate}"] = moved.outputs()["shaft_work"]
+    moved.close()
 H.emit(out)
 """
 
@@ -70,7 +80,8 @@ def boundary_run(fmu, env):
     fluid = Fluid("R134a")
     wet_enthalpy = fluid.saturated_state(fluid.saturation_temperature(0.2928e6), 0.95).hmass()
     from string import Template
-    script = Template(RUN).substitute(fmu=repr(str(fmu)), wet_enthalpy=repr(wet_enthalpy))
+    script = Template(RUN).substitute(fmu=repr(str(fmu)), wet_enthalpy=repr(wet_enthalpy),
+                                      moved_pressure=repr(MOVED_PRESSURE))
     return H.run_host(script, env=env).check().result
 
 
@@ -101,3 +112,21 @@ def test_a_wet_suction_state_given_by_enthalpy_runs_a_revolution(boundary_run):
     wet = boundary_run["wet"]
     assert 0.0 < wet["volumetric_efficiency"] < 1.0 and wet["input_power"] > 0.0, wet
     assert wet["discharge_mass_flow"] > 0.0 and math.isfinite(wet["discharge_temperature"]), wet
+
+
+def test_interpolate_speed_moves_the_boundary_inputs_over_the_step_as_the_library_does(boundary_run):
+    """p_d changed for one step: with interpolate_speed the FMU's shaft work is the library's advance that moves
+    the boundary linearly over the step, without it the advance that holds the new value (the FMU adds no physics),
+    and the two differ (tests/mechanics/test_boundary.py: the ramp is the limit of many held steps)."""
+    from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+    from rotary_vane.mechanics.loop.layout import WORK_IN
+    start = dict(suction_pressure=0.2928e6, discharge_pressure=1.3179e6, suction_temperature=283.15)
+    for interpolate in (True, False):
+        run = Simulation(CompressorParameters(), constant_speed(1500.0), initial_angle=0.0, keep_history=False)
+        for k in range(1, 5):
+            run.advance(k * 1e-3, speed_rpm=1500.0, interpolate=interpolate, boundary=start)
+        run.advance(5e-3, speed_rpm=1500.0, interpolate=interpolate,
+                    boundary={**start, "discharge_pressure": MOVED_PRESSURE})
+        assert boundary_run[f"moved interpolate={interpolate}"] == pytest.approx(run.state[WORK_IN], rel=1e-9)
+    held, ramped = boundary_run["moved interpolate=False"], boundary_run["moved interpolate=True"]
+    assert abs(held - ramped) > 1e-3 * abs(held), (held, ramped)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
-from rotary_vane.mechanics.loop.layout import GAS_BLOCK
+from rotary_vane.mechanics.loop.layout import GAS_BLOCK, VANE_STATE_SIZE, WORK_IN
 from rotary_vane.thermo.chamber_state import LEADING_MASS, LEADING_TEMPERATURE
 from rotary_vane.thermo.fluid import Fluid
 
@@ -79,3 +79,64 @@ def test_the_pressure_table_models_take_only_their_parameters_boundary():
     with pytest.raises(ValueError, match=r"input 'discharge_pressure' = 1400000.0 Pa is out of range: allowed "
                                          r"1317900.0 \(the parameter's value\): the pressure table"):
         run.set_boundary(**{**DEFAULT, "discharge_pressure": 1.4e6})
+
+
+@pytest.fixture(scope="module")
+def run_at_4_ms():
+    run = real_gas_run()
+    run.advance(0.004)
+    return run, run.get_state()
+
+
+def work_after(run_and_state, plan, interpolate=False):
+    """The shaft work [J] at 5 ms from the state at 4 ms, advancing through `plan` [(end time, boundary)]."""
+    run, saved = run_and_state
+    run.set_state(saved)
+    for end_time, boundary in plan:
+        run.advance(end_time, boundary=boundary, interpolate=interpolate)
+    return run.state[WORK_IN]
+
+
+def test_an_interpolated_boundary_is_the_limit_of_many_held_steps(run_at_4_ms):
+    """p_d ramped by 50 kPa over one 1 ms advance (interpolate=True) is what n held advances with p_d stepped at
+    each converge to: the error shrinks about as 1/n, and differs from one held step by far more."""
+    low, high = DEFAULT["discharge_pressure"], DEFAULT["discharge_pressure"] + 5e4
+
+    def at(fraction):
+        return {**DEFAULT, "discharge_pressure": low + (high - low) * fraction}
+    ramped = work_after(run_at_4_ms, [(0.005, at(1.0))], interpolate=True)
+    errors = [abs(work_after(run_at_4_ms, [(0.004 + 1e-3 * k / n, at(k / n)) for k in range(1, n + 1)]) - ramped)
+              for n in (1, 2, 4, 8)]
+    print(f"\nshaft work, p_d ramped over 1 ms: {ramped!r} J; |held steps - ramp| for 1, 2, 4, 8 steps: {errors}")
+    assert errors[0] > 1e3 * run_at_4_ms[0].machine.atol_work
+    for coarse, fine in zip(errors, errors[1:]):
+        assert 0.3 < fine / coarse < 0.7
+
+
+def test_a_state_saved_after_a_ramp_continues_held_whatever_ramp_followed(run_at_4_ms):
+    """A ramp ends with its advance: restored after a later ramp, the state continues with its own boundary held."""
+    run, _ = run_at_4_ms
+    moved, further = ({**DEFAULT, "discharge_pressure": p_d} for p_d in (1.35e6, 1.4e6))
+    work_after(run_at_4_ms, [(0.005, moved)], interpolate=True)
+    saved = run.get_state()
+    run.advance(0.006)
+    held = run.state[WORK_IN]
+    run.set_state(saved)
+    run.advance(0.006, boundary=further, interpolate=True)
+    assert run.state[WORK_IN] != held
+    run.set_state(saved)
+    run.advance(0.006)
+    assert run.state[WORK_IN] == held
+    assert run.boundary.back.pressure == 1.35e6
+
+
+def test_the_vane_sees_a_moved_discharge_pressure_in_its_back_chamber():
+    """A run whose p_d was moved to 1.4 MPa has the right-hand side of a run built at 1.4 MPa: the vane's
+    back-chamber pressure is the boundary's of the moment, not the parameters' (which it was before the boundary
+    followed the inputs into the vane loads)."""
+    moved = real_gas_run()
+    moved.set_boundary(**{**DEFAULT, "discharge_pressure": 1.4e6})
+    built = Simulation(CompressorParameters(discharge_pressure=1.4e6), constant_speed(1500.0), keep_history=False)
+    np.testing.assert_allclose(moved.state, built.state, rtol=1e-9)
+    rates = [run.evaluate(0.0, run.state)[1][:VANE_STATE_SIZE] for run in (moved, built)]
+    np.testing.assert_allclose(rates[0], rates[1], rtol=1e-7, atol=1e-9 * np.abs(rates[1]).max())

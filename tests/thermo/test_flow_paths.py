@@ -276,7 +276,7 @@ def test_closed_gaps_and_sealed_paths_pass_nothing():
 def chamber_flows(inputs, c, leading, trailing, nozzles):
     """(flow of every path by name, refused, metastable) of the flow network between the two chamber nodes and the
     run's boundary nodes."""
-    suction, back = boundary_nodes(c)
+    suction, back = boundary_nodes(c, 0.0)
     work = chamber_flow_work()[0]
     for node, state in ((SUCTION, suction), (LEADING, leading), (TRAILING, trailing), (BACK, back)):
         set_node(work, node, state)
@@ -413,16 +413,16 @@ def test_adding_a_flow_path_is_one_row(every_path):
                       "tip_law", "tip_coefficient", "")
     paths = (*FLOW_PATHS, bypass)
     shipped, flows = np.zeros(y.size), chamber_flow_work()[0]
-    chamber_rates(y, GAS_BLOCK, inputs, c, table, nozzles, shipped, flows)
+    chamber_rates(0.0, y, GAS_BLOCK, inputs, c, table, nozzles, shipped, flows)
     closed, closed_flows = np.zeros(y.size), chamber_flow_work(paths)[0]
-    chamber_rates(y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=0.0, bypass_length=0.0), table,
+    chamber_rates(0.0, y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=0.0, bypass_length=0.0), table,
                   nozzles, closed, closed_flows)
     assert np.array_equal(closed, shipped)
     assert len(closed_flows["mass_flow"]) == len(flows["mass_flow"]) + 1 and closed_flows["mass_flow"][-1] == 0.0
     assert np.array_equal(closed_flows["mass_flow"][:-1], flows["mass_flow"])
     gap, length = 15e-6, 2e-3
     opened, open_flows = np.zeros(y.size), chamber_flow_work(paths)[0]
-    chamber_rates(y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=gap, bypass_length=length), table,
+    chamber_rates(0.0, y, GAS_BLOCK, inputs, extended_constants(c, paths, bypass_gap=gap, bypass_length=length), table,
                   nozzles, opened, open_flows)
     (t_l, rho_l, p_l), (t_t, rho_t, p_t) = chamber_nodes(sim, y, outputs)
     expected, status = signed_real_gas_leakage_flow(
