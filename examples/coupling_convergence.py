@@ -14,6 +14,7 @@ steps not converged, the largest speed change left at one, the time of the first
 
 Usage:  python examples/coupling_convergence.py [--stop-time 1.2] [--step 1e-3] [--speed-tolerance 1e-6]
                                                 [--models real_gas ideal_gas_table] [--motor-power 1500]
+                                                [--relative-tolerance R] [--integrator dopri5|abm4|ark548]
 """
 from __future__ import annotations
 
@@ -46,6 +47,9 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                         help="rated power of the induction motor [W] (DriveMotor rated_power)")
     parser.add_argument("--relative-tolerance", type=number_parser("", 0.0, 1.0), default=None,
                         help="the compressor's relative_tolerance (default: the FMU's, 3e-5)")
+    parser.add_argument("--integrator", choices=("dopri5", "abm4", "ark548"), default=None,
+                        help="the compressor's integrator (default: the FMU's, dopri5; ark548 integrates the chamber "
+                             "states implicitly and gives a smooth one-step map under real gas)")
     harness.add_common_options(parser, "coupling_convergence")
     args = parser.parse_args(argv)
     if args.max_iterations < 2:
@@ -72,8 +76,10 @@ def iterated_step(system: CoupledSystem, t: float, h: float, tolerance: float, m
 def convergence_run(system: CoupledSystem, args) -> dict:
     """The start-up with the iterative master at every step: iterations, steps not converged, wall time."""
     system.motor.start(system.motor_values(args.motor_power))
-    tolerance = {} if args.relative_tolerance is None else {"relative_tolerance": args.relative_tolerance}
-    system.compressor.start({**system.compressor_values(), **tolerance})
+    settings = {} if args.relative_tolerance is None else {"relative_tolerance": args.relative_tolerance}
+    if args.integrator is not None:
+        settings["integrator"] = args.integrator
+    system.compressor.start({**system.compressor_values(), **settings})
     count = round(args.stop_time / args.step)
     iterations, unconverged, message = [], [], ""
     start = time.perf_counter()
@@ -96,8 +102,9 @@ def convergence_run(system: CoupledSystem, args) -> dict:
 
 def table(results: list[dict], args) -> str:
     rtol = "the FMU's default" if args.relative_tolerance is None else f"{args.relative_tolerance:g}"
+    method = "the FMU's default" if args.integrator is None else args.integrator
     lines = [f"Iterative master, DriveMotor {args.motor_power:g} W + RotaryVaneCompressor (relative_tolerance "
-             f"{rtol}) from rest to {args.stop_time:g} s at {args.step:g} s steps; converged: interface speed within "
+             f"{rtol}, integrator {method}) from rest to {args.stop_time:g} s at {args.step:g} s steps; converged: interface speed within "
              f"{args.speed_tolerance:g} rpm between iterations (at most {args.max_iterations} iterations)", "",
              "| pressure model | steps | iterations / step (median / max) | steps not converged | largest speed "
              "change left [rpm] | largest torque change left [N.m] | first at [s] | speed at the end [rpm] | "
