@@ -82,7 +82,8 @@ WORKSPACE_ROWS = STAGES + 4
 
 @kernel
 def _tolerance(i, value, m, c):
-    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (chamber states: thermo's)."""
+    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (chamber states: thermo's); the work
+    integrals, running sums, atol_work alone (§8.2: rtol times the sum would loosen them as the run goes on)."""
     if i >= GAS_BLOCK:
         return gas_tolerance(i - GAS_BLOCK, value, c, m.relative_tolerance)
     if i == X or i == Y:
@@ -94,7 +95,7 @@ def _tolerance(i, value, m, c):
     elif i == ANGULAR_VELOCITY:
         atol = m.atol_angular_velocity
     else:
-        atol = m.atol_work
+        return m.atol_work
     return atol + m.relative_tolerance * abs(value)
 
 
