@@ -47,6 +47,10 @@ SPEEDS_RPM = (0.0, 10.0, 1500.0, MAX_SPEED_RPM)
 FLUIDS = ("R134a", "R410A", "R744", "Propane", "Air")
 LEDGER_BOUND = 1e-3
 STANDSTILL_TIME = 0.01               # s simulated at 0 rpm
+# the budget is checked after every advance of at most this simulated time [s]: an advance may make up to
+# mechanics.simulation.WORK_PER_MS step attempts per ms (seconds of CPU), so a 1/50 revolution at 17 rpm (69 ms) that
+# ended at the work bound took 200 s against a 20 s budget
+BUDGET_CHECK_INTERVAL = 1e-3
 SEED = 20261125
 # columns that may be NaN by definition: a region without a candidate point; the chamber states under the tables
 MAYBE_NAN = tuple(name for name in OUTPUT_NAMES if name.startswith("penetration_"))
@@ -153,7 +157,7 @@ def run_point(point: dict, budget: float = 120.0) -> dict:
     start = time.process_time()
     try:
         end = STANDSTILL_TIME if rpm == 0.0 else 60.0 / rpm * 1.0001     # just past the valley at 2 pi
-        slices = 50
+        slices = max(50, math.ceil(end / BUDGET_CHECK_INTERVAL))
         for k in range(1, slices + 1):
             simulation.advance(end * k / slices)
             result["progress"] = k / slices
