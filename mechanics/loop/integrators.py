@@ -52,6 +52,7 @@ GRID_START, GRID_STEP, GRID_END, GRID_REDONE = range(4)
 GRID_COLUMNS = 4
 REPLAY_ERROR_LIMIT = 10.0           # a replayed step whose scaled error exceeds this ends the replay
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
+RK4_GROWTH = 5.0                    # the most an ABM4 start (RK4) step grows h by (_abm4_start_growth)
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT, CONTACT_EVENT = range(5)
 NO_SLOT = -1                        # no contact change to redo the step to (_contact_changes)
@@ -99,7 +100,8 @@ NEWTON_FAILED = 1e3          # the scaled error of a step whose Newton iteration
 
 @kernel
 def _tolerance(i, value, m, c):
-    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (chamber states: thermo's)."""
+    """atol_i + rtol |y_i| with the absolute tolerances of docs/model.md §8.2 (chamber states: thermo's); the work
+    integrals, running sums, atol_work alone (§8.2: rtol times the sum would loosen them as the run goes on)."""
     if i >= GAS_BLOCK:
         return gas_tolerance(i - GAS_BLOCK, value, c, m.relative_tolerance)
     if i == X or i == Y:
@@ -111,7 +113,7 @@ def _tolerance(i, value, m, c):
     elif i == ANGULAR_VELOCITY:
         atol = m.atol_angular_velocity
     else:
-        atol = m.atol_work
+        return m.atol_work
     return atol + m.relative_tolerance * abs(value)
 
 
@@ -353,8 +355,9 @@ def abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows,
     """One ABM4 PECE step from (t, y) (docs/model.md §8.2), f_n = history[0] = work[0]:
       AB4:  y^p = y_n + h/24 (55 f_n - 59 f_n-1 + 37 f_n-2 - 9 f_n-3);  AM4: y^c = y_n + h/24 (9 f^p + 19 f_n - 5 f_n-1 + f_n-2)
       LTE ~ 19/270 (y^c - y^p);
-    or, without four points at the current spacing or when the step lands on an event, one RK4 step (no error
-    estimate). Returns (failure status, max scaled error)."""
+    or, without four points at the current spacing or when the step lands on an event, one RK4 step. Returns (failure status, max scaled error).
+    The RK4 step's error is that of the embedded 3rd-order solution (b^ = 1/6, 1/3, 1/3, 0, 1/6 on k_1..k_4 and
+    f(t + h, y_new), which the step evaluates anyway): h/6 (k_4 - f(t + h, y_new)) (docs/model.md §8.2)."""
     m = ctx.machine[0]
     c = ctx.chambers[0]
     n = y.size
@@ -382,15 +385,19 @@ def abm4_attempt(t, h, event, y, ctx, memory, control, history, work, work_rows,
                                    + RK4_B[3] * work[3, i])
         counters[EVALUATIONS] += 4
     failure |= evaluate(t + h, y_new, ctx, memory, work_rows[STAGES - 1], out, True)
+    if not _abm4_multistep(control, event):
+        for i in range(n):
+            worst = max(worst, abs(h / 6.0 * (work[3, i] - work[STAGES - 1, i])) / _tolerance(i, y_new[i], m, c))
     return failure, worst
 
 
 @kernel
 def abm4_after_rejection(control, step, err, finite):
-    """Halve and restart from y_n."""
+    """Halve (or shrink by the error's own factor, at most 5x) and restart from y_n."""
     control[CONTROL_HISTORY] = 1.0
     control[CONTROL_SMALL_ERRORS] = 0.0
-    return 0.5 * min(control[CONTROL_STEP], step)
+    factor = max(0.2, min(0.5, 0.9 * err ** -0.25)) if (err > 1.0 and finite) else 0.5
+    return factor * min(control[CONTROL_STEP], step)
 
 
 @kernel
@@ -412,12 +419,16 @@ def _abm4_shift_history(control, event, history, work, n):
 @kernel
 def abm4_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
     """Shift the history (restart it after a non-smooth point); double h after 8 PECE steps with err < 1/50 if
-    2h <= h_max, reusing every second point when 7 are known at the current spacing, else restarting."""
+    2h <= h_max, reusing every second point when 7 are known at the current spacing, else restarting. After an RK4
+    step the step grows by its own error (_abm4_start_growth)."""
     multistep = _abm4_multistep(control, event)
     _abm4_shift_history(control, event, history, work, n)
     if restart:
         control[CONTROL_HISTORY] = 1.0
         counters[RESTARTS] += 1
+    if not multistep:
+        _abm4_start_growth(control, step, err, rejected_last, m)
+        return
     small_errors = control[CONTROL_SMALL_ERRORS] + 1.0 if (multistep and err < 1.0 / 50.0) else 0.0
     h = control[CONTROL_STEP]
     if small_errors >= 8.0 and 2.0 * h <= m.max_step:
@@ -431,6 +442,24 @@ def abm4_after_acceptance(control, step, err, event, restart, rejected_last, his
         control[CONTROL_STEP] = 2.0 * h
         small_errors = 0.0
     control[CONTROL_SMALL_ERRORS] = small_errors
+
+
+@kernel
+def _abm4_start_growth(control, step, err, rejected_last, m):
+    """After an RK4 step: if its error allows at least twice the step (0.9 err^(-1/4) >= 2, not right after a
+    rejection), grow h by that factor, at most RK4_GROWTH and to h_max, and restart the history at the new spacing;
+    a step shortened by an event never shrinks h. So after a step collapse (a rejection halves h, and PECE alone
+    doubles only after 8 quiet steps, which every contact change restarts) the RK4 steps bring h back to what their
+    error allows, as DOPRI5's controller does (docs/model.md §8.2)."""
+    factor = min(RK4_GROWTH, 0.9 * max(err, 1e-10) ** -0.25)
+    if rejected_last or factor < 2.0:
+        return
+    h = control[CONTROL_STEP]
+    grown = min(max(h, step * factor), m.max_step)
+    if grown >= 2.0 * h:
+        control[CONTROL_STEP] = grown
+        control[CONTROL_HISTORY] = 1.0
+        control[CONTROL_SMALL_ERRORS] = 0.0
 
 
 @kernel
