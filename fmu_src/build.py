@@ -22,6 +22,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from pythonfmu import FmuBuilder
@@ -193,28 +194,42 @@ def build(out_dir: Path, map_file: Path | None = None, kernels: bool = True) -> 
     with the compiled kernels unless `kernels` is false); return their paths."""
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="rvc_fmu_") as temporary:
-        built = [build_one(Path(temporary) / model, out_dir, model, map_file, kernels) for model in MODELS]
+        staged = {model: stage(Path(temporary) / model, model) for model in MODELS}
+        # the kernels are compiled in processes of their own: one per FMU at once (the build's longest part)
+        with ThreadPoolExecutor(max_workers=len(MODELS)) as pool:
+            shipped = dict(zip(MODELS, pool.map(lambda model: kernels_note(*staged[model], model, kernels), MODELS)))
+        built = [build_one(*staged[model], out_dir, model, map_file, shipped[model]) for model in MODELS]
     systems = PROJECT_DIR / "fmu_src" / "systems"       # OSP and SSP system files: they run next to the FMUs
     for system in [*systems.glob("*.xml"), *systems.glob("*.ssd")]:
         shutil.copy(system, out_dir)
     return built
 
 
-def build_one(staging: Path, out_dir: Path, model: str, map_file: Path | None, kernels: bool) -> Path:
-    """The FMU `model` in out_dir, staged in the new folder `staging` with its own bundle (private_package_name);
-    the compressor with the table of `map_file` and, if `kernels`, its compiled kernels."""
-    module, cls, has_kernels = MODELS[model]
+def stage(staging: Path, model: str) -> tuple[Path, str]:
+    """(the new folder `staging` holding the bundle of `model`, its private package name)."""
     private = private_package_name(model)
     staging.mkdir()
-    package = vendor(staging, private)
+    vendor(staging, private)
+    return staging, private
+
+
+def kernels_note(staging: Path, private: str, model: str, kernels: bool) -> str:
+    """Compile the kernels `model` ships into its staged bundle if it calls any and `kernels`; return what its
+    documentation says of them."""
+    if not MODELS[model][2]:
+        return "It calls no compiled kernel."
+    if kernels:
+        return ship_kernels(staging, private, model)
+    return ("The first run on a machine compiles the numerical kernels (about 30 s, once); they are cached "
+            "in ~/.cache/rotary-vane-compressor/numba (or $ROTARY_VANE_CACHE_DIR).")
+
+
+def build_one(staging: Path, private: str, out_dir: Path, model: str, map_file: Path | None, shipped: str) -> Path:
+    """The FMU `model` in out_dir from its bundle staged in `staging` under the private package name `private`
+    (stage); the compressor with the table of `map_file`; `shipped`: what its documentation says of its kernels."""
+    module, cls, _ = MODELS[model]
+    package = staging / private
     requirements = bundled_requirements([package])
-    if not has_kernels:
-        shipped = "It calls no compiled kernel."
-    elif kernels:
-        shipped = ship_kernels(staging, private, model)
-    else:
-        shipped = ("The first run on a machine compiles the numerical kernels (about 30 s, once); they are cached "
-                   "in ~/.cache/rotary-vane-compressor/numba (or $ROTARY_VANE_CACHE_DIR).")
     (staging / "requirements.txt").write_text("\n".join(requirements) + "\n")
     sys.path.insert(0, str(staging))
     try:
