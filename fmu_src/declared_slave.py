@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import math
 
+from pythonfmu.enums import Fmi2Causality, Fmi2Variability
+
 from ..mechanics.parameters import short_repr
 
 from .slave import GuardedSlave
+from .variables import RealVariable, declared_parameter, output
 
 
 def number(unit, default, minimum, maximum, description, *, integer=False):
@@ -36,6 +39,21 @@ class DeclaredSlave(GuardedSlave):
 
     declared_parameters: dict = {}
     state_schema = None
+
+    def register_declared_variables(self, inputs, outputs) -> None:
+        """Register the continuous inputs `inputs` (name, unit, start, description; each set to its start), the
+        declared parameters (each set to its default) and the outputs `outputs` (name -> (unit, description),
+        read through `_output(name)`)."""
+        for name, unit, start, text in inputs:
+            setattr(self, name, start)
+            self.register_variable(RealVariable(name, unit, causality=Fmi2Causality.input,
+                                                variability=Fmi2Variability.continuous, description=text))
+        for name, meta in self.declared_parameters.items():
+            setattr(self, name, meta["default"])
+            self.register_variable(declared_parameter(name, meta))
+        for name, (unit, text) in outputs.items():
+            self.register_variable(output(name, unit, text,
+                                          getter=lambda name=name, owner=self.owner: owner._output(name)))
 
     @classmethod
     def check_parameters(cls, values: dict) -> None:

@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 
 from pythonfmu.default_experiment import DefaultExperiment
-from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
 from ..mechanics.reduced.drive_motor import MOTOR_TYPES, DcMotor, InductionMotor, rk4
 from ..mechanics.loop.speed import RPM
@@ -16,7 +15,6 @@ from ..mechanics.loop.speed import RPM
 from . import state_schema as schema
 from .declared_slave import DeclaredSlave, number
 from .slave import StepFailed
-from .variables import RealVariable, declared_parameter, output
 
 MAX_SUBSTEPS = 1_000_000                      # RK4 substeps in one communication step (about 4 s of wall time)
 
@@ -95,15 +93,8 @@ class MotorSlave(DeclaredSlave):
         self.time = 0.0                               # model time since the start time [s]
         self.state = (0.0,) * 5                       # (w, i, theta, electrical energy, motor work)
         self.outputs = dict.fromkeys(OUTPUTS, 0.0)
-        for name, (unit, start, _, text) in INPUTS.items():
-            setattr(self, name, start)
-            self.register_variable(RealVariable(name, unit, causality=Fmi2Causality.input,
-                                                variability=Fmi2Variability.continuous, description=text))
-        for name, meta in PARAMETERS.items():
-            setattr(self, name, meta["default"])
-            self.register_variable(declared_parameter(name, meta))
-        for name, (unit, text) in OUTPUTS.items():
-            self.register_variable(output(name, unit, text, getter=lambda name=name, owner=self.owner: owner._output(name)))
+        self.register_declared_variables([(name, unit, start, text) for name, (unit, start, _, text) in INPUTS.items()],
+                                         OUTPUTS)
 
     def _output(self, name):
         if self.model is None and name == "shaft_speed":

@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 from pythonfmu.default_experiment import DefaultExperiment
-from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
 from ..mechanics.reduced import refrigeration_loop as loop
 from ..thermo.fluid_envelope import SUCTION_QUALITY_MIN, fluid_property_table_for
@@ -19,7 +18,6 @@ from ..thermo.fluid_envelope import SUCTION_QUALITY_MIN, fluid_property_table_fo
 from . import state_schema as schema
 from .declared_slave import DeclaredSlave, number
 from .slave import StepFailed
-from .variables import RealVariable, declared_parameter, output
 
 FLUID = "R134a"
 
@@ -122,16 +120,7 @@ class LoopSlave(DeclaredSlave):
         self.model: loop.RefrigerationLoop | None = None
         self._standstill = None                   # (parameter values, their standstill loop or None, refusal)
         self.time = 0.0
-        for name, (unit, start, text) in INPUTS.items():
-            setattr(self, name, start)
-            self.register_variable(RealVariable(name, unit, causality=Fmi2Causality.input,
-                                                variability=Fmi2Variability.continuous, description=text))
-        for name, meta in PARAMETERS.items():
-            setattr(self, name, meta["default"])
-            self.register_variable(declared_parameter(name, meta))
-        for name, (unit, text) in OUTPUTS.items():
-            self.register_variable(output(name, unit, text,
-                                          getter=lambda name=name, owner=self.owner: owner._output(name)))
+        self.register_declared_variables([(name, *spec) for name, spec in INPUTS.items()], OUTPUTS)
 
     def _output(self, name):
         model = self.model if self.model is not None else self._standstill_model()
