@@ -18,11 +18,15 @@ its tables cannot hold them). At the start p_d >= p_s is required; a reversed di
 Flow outputs (FLOW_RESULTS), from the chamber model's cumulative flows in the state (thermo.chamber_state), so
 that a host integrating the step means conserves mass and energy across the interface exactly: the drawn mass is
 the net mass from the suction side (ports, valley leaks, chambers filled from or vented to the idle lobes), the
-delivered mass and enthalpy the net flow to the discharge side (discharge valve minus what returns to the
-chambers from the back chamber, which holds discharge-side gas, through the slot side faces). In a step that
+drawn enthalpy the energy those same flows carry (upwind enthalpy through the ports and seals, so that back-flow
+carries the chamber's; internal energy of the gas the valley switch moves, whose volume moves with it: docs/model.md
+§7.2, §16.5), the delivered mass and enthalpy the net flow to the discharge side (discharge valve minus what returns
+to the chambers from the back chamber, which holds discharge-side gas, through the slot side faces). In a step that
 delivered nothing (the valve is shut for part of every lobe, so at 1 ms steps that is common) the mean discharge
 enthalpy is the discharge plenum's (the back node's): finite, so that a host multiplying it by the step's mass gets
-0 and not NaN, and fmi2OK (a NaN would come with fmi2Warning from every read in normal operation).
+0 and not NaN, and fmi2OK (a NaN would come with fmi2Warning from every read in normal operation). No step-mean
+suction enthalpy: the net drawn mass of a step passes through 0 when back-flow balances the inflow, and the ratio
+would then mean nothing.
 """
 from __future__ import annotations
 
@@ -32,8 +36,8 @@ from pythonfmu.enums import Fmi2Causality, Fmi2Variability
 
 from ..mechanics.loop.layout import GAS_BLOCK
 from ..mechanics.parameters import CompressorParameters
-from ..thermo.chamber_state import (ENERGY_BACK_CHAMBER, ENERGY_DISCHARGE, MASS_BACK_CHAMBER, MASS_DISCHARGE,
-                                    MASS_SUCTION)
+from ..thermo.chamber_state import (ENERGY_BACK_CHAMBER, ENERGY_DISCHARGE, ENERGY_SUCTION, MASS_BACK_CHAMBER,
+                                    MASS_DISCHARGE, MASS_SUCTION)
 
 from .variables import RealVariable
 
@@ -63,6 +67,9 @@ SUCTION_STATE_INPUTS = ("temperature", "enthalpy")
 
 FLOW_RESULTS = {
     "drawn_mass": ("kg", "cumulative net mass drawn from the suction side since the start", None),
+    "drawn_enthalpy": ("J", "cumulative net energy drawn from the suction side since the start, over the flows "
+                            "drawn_mass sums: their enthalpy through the ports and valley seals (either way), the "
+                            "internal energy of the gas the valley switch moves", None),
     "delivered_mass": ("kg", "cumulative net mass delivered to the discharge side since the start", None),
     "delivered_enthalpy": ("J", "cumulative net enthalpy delivered to the discharge side since the start", None),
     "suction_mass_flow_mean": ("kg/s", "drawn mass over the last step / step size", "drawn_mass"),
@@ -109,10 +116,11 @@ def flow_results(simulation, before: dict | None, step_size: float) -> dict:
     """The cumulative flows of the state (module docstring); with `before` (this function's values at the step's
     start) also the step means."""
     if simulation.params.pressure_model != "real_gas":
-        cumulative = dict(drawn_mass=0.0, delivered_mass=0.0, delivered_enthalpy=0.0)
+        cumulative = dict(drawn_mass=0.0, drawn_enthalpy=0.0, delivered_mass=0.0, delivered_enthalpy=0.0)
     else:
         y = simulation.state
         cumulative = dict(drawn_mass=float(y[GAS_BLOCK + MASS_SUCTION]),
+                          drawn_enthalpy=float(y[GAS_BLOCK + ENERGY_SUCTION]),
                           delivered_mass=float(y[GAS_BLOCK + MASS_DISCHARGE] - y[GAS_BLOCK + MASS_BACK_CHAMBER]),
                           delivered_enthalpy=float(y[GAS_BLOCK + ENERGY_DISCHARGE]
                                                    - y[GAS_BLOCK + ENERGY_BACK_CHAMBER]))

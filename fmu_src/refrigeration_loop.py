@@ -53,6 +53,8 @@ SECONDARY_TEMPERATURE_RANGE = (200.0, 400.0)              # K
 INPUTS = {  # name -> (unit, start, description)
     "drawn_mass": ("kg", 0.0, "cumulative mass the compressor drew from the suction since the start (connect the "
                               "compressor's drawn_mass)"),
+    "drawn_enthalpy": ("J", 0.0, "cumulative energy the compressor drew from the suction since the start (connect "
+                                 "the compressor's drawn_enthalpy)"),
     "delivered_mass": ("kg", 0.0, "cumulative mass the compressor delivered to the discharge since the start "
                                   "(connect the compressor's delivered_mass)"),
     "delivered_enthalpy": ("J", 0.0, "cumulative enthalpy the compressor delivered since the start (connect the "
@@ -87,7 +89,7 @@ MODEL_SCHEMA = schema.Record({
     "time": schema.Real(0.0, math.inf),
     "state": schema.Sequence(schema.Real(), loop.STATE_COUNT),
     "guesses": schema.Sequence(schema.Real(), 2),
-    "exchange": schema.Sequence(schema.Real(), 3),
+    "exchange": schema.Sequence(schema.Real(), loop.EXCHANGE_COUNT),
     "drawn_rate": schema.Real(),
     "secondary_temperatures": schema.Sequence(schema.Real(), 2),
     "outputs": schema.Record({name: schema.Real(finite=False) for name in OUTPUTS}),
@@ -111,9 +113,9 @@ class LoopSlave(DeclaredSlave):
     declared_parameters = PARAMETERS
     state_schema = MODEL_SCHEMA
     example_start_values = {"refrigerant_charge": 0.8}
-    documentation_note = ("Connect the compressor's drawn_mass, delivered_mass and delivered_enthalpy to the inputs "
-                          "of the same names, and suction_pressure, suction_enthalpy and discharge_pressure to the "
-                          "compressor's inputs (its suction_state_input = enthalpy).")
+    documentation_note = ("Connect the compressor's drawn_mass, drawn_enthalpy, delivered_mass and "
+                          "delivered_enthalpy to the inputs of the same names, and suction_pressure, suction_enthalpy "
+                          "and discharge_pressure to the compressor's inputs (its suction_state_input = enthalpy).")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -177,7 +179,8 @@ class LoopSlave(DeclaredSlave):
 
     def advance(self, end_time, step_size):
         try:
-            self.model.step(step_size, (self.drawn_mass, self.delivered_mass, self.delivered_enthalpy),
+            self.model.step(step_size, (self.drawn_mass, self.drawn_enthalpy, self.delivered_mass,
+                                        self.delivered_enthalpy),
                             self.condenser_secondary_temperature, self.evaporator_secondary_temperature)
         except loop.LoopFailure as failure:
             raise StepFailed(f"at t = {end_time + self.start_time!r} s {failure}") from None
@@ -190,7 +193,7 @@ class LoopSlave(DeclaredSlave):
         return dict(parameters=self.parameter_values(), built=built, time=self.time,
                     state=[float(v) for v in model.state] if built else [0.0] * loop.STATE_COUNT,
                     guesses=[float(v) for v in model.guesses] if built else [0.0, 0.0],
-                    exchange=[float(v) for v in model.exchange] if built else [0.0] * 3,
+                    exchange=[float(v) for v in model.exchange] if built else [0.0] * loop.EXCHANGE_COUNT,
                     drawn_rate=model.drawn_rate if built else 0.0,
                     secondary_temperatures=list(model.secondary_temperatures) if built else [0.0, 0.0],
                     outputs={name: self._output(name) if built else 0.0 for name in OUTPUTS},

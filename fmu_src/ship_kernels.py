@@ -73,6 +73,7 @@ def run_loop() -> None:
     stepped = slave.phase == INITIALIZED
     for k in range(STEPS):
         slave.drawn_mass += 1e-5
+        slave.drawn_enthalpy += 1e-5 * slave.model.outputs["suction_enthalpy"]
         slave.delivered_mass += 1e-5
         slave.delivered_enthalpy += 1e-5 * 440e3
         stepped = stepped and slave.do_step(k * STEP_SIZE, STEP_SIZE)

@@ -4,17 +4,19 @@
 States y = (M_c, U_c, M_e, U_e, Q_c, Q_e, Q_sh): mass and internal energy of the condenser and the evaporator
 (thermo.volume_state gives T, p and the quality of each), and the cumulative heats into the condenser, the
 evaporator and the suction line. With the compressor's step exchange as constant rates over a step (drawn mass
-rate m_s, delivered mass rate m_d, delivered enthalpy rate H_d) and the valve flow m_v at the enthalpy h_v,in of
-its upstream volume's outlet (docs/model.md §16.2-16.4):
+rate m_s, drawn enthalpy rate H_s, delivered mass rate m_d, delivered enthalpy rate H_d) and the valve flow m_v at
+the enthalpy h_v,in of its upstream volume's outlet (docs/model.md §16.2-16.5):
 
     dM_c/dt = m_d - m_v                 dU_c/dt = H_d - m_v h_v,in + UA_c (T_c,sec - T_c)
-    dM_e/dt = m_v - m_s                 dU_e/dt = m_v h_v,in - m_s h_e,out + UA_e (T_e,sec - T_e)
+    dM_e/dt = m_v - m_s                 dU_e/dt = m_v h_v,in - H_s + m_s (h_s - h_e,out) + UA_e (T_e,sec - T_e)
     dQ_c/dt = UA_c (T_c,sec - T_c)      dQ_e/dt = UA_e (T_e,sec - T_e)    dQ_sh/dt = m_s (h_s - h_e,out)
 
-h_s being the suction enthalpy the loop gave the compressor for the step. Every exchange between the two volumes
-enters one and leaves the other with the same rate, and RK4 combines the stages linearly, so M_c + M_e changes by
-exactly the compressor's (delivered - drawn) mass and U_c + U_e + (heat the suction line handed on) by its
-exchange plus the heats, to round-off.
+h_s being the suction enthalpy the loop gave the compressor for the step: the evaporator gives m_s h_e,out, the
+suction line heats it by Q_sh to m_s h_s, and what the compressor's drawn energy H_s differs from that (back-flow
+from the chambers at their energy, docs/model.md §16.5) returns to the evaporator, the massless suction line's
+upstream volume. Every exchange between the two volumes enters one and leaves the other with the same rate, and
+RK4 combines the stages linearly, so M_c + M_e changes by exactly the compressor's (delivered - drawn) mass and
+U_c + U_e by its (delivered - drawn) enthalpy plus the three heats, to round-off.
 """
 from __future__ import annotations
 
@@ -35,9 +37,10 @@ PARAMETER_COUNT = 12
 FIXED_ORIFICE, THERMOSTATIC = 0, 1
 VALVE_KINDS = ("fixed_orifice", "thermostatic")
 # input vector: rates held over a step
-(DRAWN_RATE, DELIVERED_RATE, DELIVERED_ENTHALPY_RATE, CONDENSER_SECONDARY_TEMPERATURE,
- EVAPORATOR_SECONDARY_TEMPERATURE, SUCTION_ENTHALPY) = range(6)
-INPUT_COUNT = 6
+(DRAWN_RATE, DRAWN_ENTHALPY_RATE, DELIVERED_RATE, DELIVERED_ENTHALPY_RATE, CONDENSER_SECONDARY_TEMPERATURE,
+ EVAPORATOR_SECONDARY_TEMPERATURE, SUCTION_ENTHALPY) = range(7)
+INPUT_COUNT = 7
+EXCHANGE_COUNT = 4                     # cumulative drawn mass, drawn enthalpy, delivered mass, delivered enthalpy
 # state vector
 CONDENSER_MASS, CONDENSER_ENERGY, EVAPORATOR_MASS, EVAPORATOR_ENERGY, CONDENSER_HEAT, EVAPORATOR_HEAT, \
     SUCTION_LINE_HEAT = range(7)
@@ -164,10 +167,12 @@ def loop_derivatives(y, parameters, inputs, guesses, table, slopes):
     slopes[CONDENSER_MASS] = inputs[DELIVERED_RATE] - valve
     slopes[CONDENSER_ENERGY] = inputs[DELIVERED_ENTHALPY_RATE] - valve * upstream_enthalpy + condenser_heat
     slopes[EVAPORATOR_MASS] = valve - drawn
-    slopes[EVAPORATOR_ENERGY] = valve * upstream_enthalpy - drawn * evaporator_enthalpy + evaporator_heat
+    suction_line_heat = drawn * (inputs[SUCTION_ENTHALPY] - evaporator_enthalpy)
+    slopes[EVAPORATOR_ENERGY] = (valve * upstream_enthalpy - inputs[DRAWN_ENTHALPY_RATE] + suction_line_heat
+                                 + evaporator_heat)
     slopes[CONDENSER_HEAT] = condenser_heat
     slopes[EVAPORATOR_HEAT] = evaporator_heat
-    slopes[SUCTION_LINE_HEAT] = drawn * (inputs[SUCTION_ENTHALPY] - evaporator_enthalpy)
+    slopes[SUCTION_LINE_HEAT] = suction_line_heat
     return LOOP_OK, 0
 
 
@@ -311,7 +316,7 @@ class RefrigerationLoop:
                               f"not on the property table: {describe_boundary_status(status)}")
         self.state = y
         self.guesses = np.array([standstill_temperature, standstill_temperature])
-        self.exchange = np.zeros(3)          # cumulative drawn mass, delivered mass, delivered enthalpy at the state
+        self.exchange = np.zeros(EXCHANGE_COUNT)     # the compressor's cumulative exchange at the state
         self.drawn_rate = 0.0
         self.secondary_temperatures = (standstill_temperature, standstill_temperature)
         self.outputs = {**self._outputs(), **dict.fromkeys(HEAT_FLOW_NAMES, 0.0)}
@@ -330,13 +335,13 @@ class RefrigerationLoop:
         return outputs
 
     def step(self, step_size, exchange, condenser_secondary_temperature, evaporator_secondary_temperature) -> None:
-        """Advance by `step_size` [s] with the compressor's cumulative (drawn mass, delivered mass, delivered
-        enthalpy) at the step's end; LoopFailure (the loop unchanged) if it cannot, or if the step ends with the
-        evaporator empty or the suction wetter than suction_quality_min (the compressor flooded)."""
+        """Advance by `step_size` [s] with the compressor's cumulative (drawn mass, drawn enthalpy, delivered mass,
+        delivered enthalpy) at the step's end; LoopFailure (the loop unchanged) if it cannot, or if the step ends
+        with the evaporator empty or the suction wetter than suction_quality_min (the compressor flooded)."""
         exchange = np.asarray(exchange, dtype=float)
         rates = (exchange - self.exchange) / step_size
         inputs = np.empty(INPUT_COUNT)
-        inputs[DRAWN_RATE], inputs[DELIVERED_RATE], inputs[DELIVERED_ENTHALPY_RATE] = rates
+        inputs[DRAWN_RATE], inputs[DRAWN_ENTHALPY_RATE], inputs[DELIVERED_RATE], inputs[DELIVERED_ENTHALPY_RATE] = rates
         inputs[CONDENSER_SECONDARY_TEMPERATURE] = condenser_secondary_temperature
         inputs[EVAPORATOR_SECONDARY_TEMPERATURE] = evaporator_secondary_temperature
         inputs[SUCTION_ENTHALPY] = self.outputs["suction_enthalpy"]

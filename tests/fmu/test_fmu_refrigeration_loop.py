@@ -23,14 +23,16 @@ fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(spec["fmu"]), modelIdentifi
 fmu.instantiate(loggingOn=True)
 OUT = [vr[n] for n in ("suction_pressure", "discharge_pressure", "suction_enthalpy", "evaporator_heat_flow",
                        "refrigerant_charge_in_loop")]
-IN = [vr[n] for n in ("drawn_mass", "delivered_mass", "delivered_enthalpy")]
+IN = [vr[n] for n in ("drawn_mass", "drawn_enthalpy", "delivered_mass", "delivered_enthalpy")]
 m, h, dt = spec["mass_flow"], spec["enthalpy"], spec["step"]
+drawn_enthalpy = [0.0]
 
 def advance(k0, n):
     values = []
     for k in range(k0, k0 + n):
         t = (k + 1) * dt
-        fmu.setReal(IN, [m * t, m * t, m * h * t])
+        drawn_enthalpy[0] += m * dt * fmu.getReal([vr["suction_enthalpy"]])[0]
+        fmu.setReal(IN, [m * t, drawn_enthalpy[0], m * t, m * h * t])
         fmu.doStep(k * dt, dt)
         values.append(fmu.getReal(OUT))
     return values
@@ -53,8 +55,10 @@ else:
     result["run"] = advance(0, spec["steps"])
     state = fmu.getFMUstate()
     blob = fmu.serializeFMUstate(state)
+    saved_drawn_enthalpy = drawn_enthalpy[0]
     result["first"] = advance(spec["steps"], 5)
     fmu.setFMUstate(fmu.deSerializeFMUstate(blob))
+    drawn_enthalpy[0] = saved_drawn_enthalpy
     result["again"] = advance(spec["steps"], 5)
     fmu.setReal([vr["evaporator_secondary_temperature"]], [math.nan])
     try:
