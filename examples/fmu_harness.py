@@ -31,7 +31,9 @@ DEFAULT_FMU_DIR = PROJECT_DIR / "build" / "fmu"
 DEFAULT_OUT_ROOT = PROJECT_DIR / "out"
 COMPRESSOR = "RotaryVaneCompressor"
 MOTOR = "DriveMotor"
-SYSTEM_FILES = ("OspSystemStructure.xml", "OspSystemStructure_ecco.xml", "SystemStructure.ssd")
+LOOP = "RefrigerationLoop"
+SYSTEM_FILES = ("OspSystemStructure.xml", "OspSystemStructure_ecco.xml", "SystemStructure.ssd",
+                "OspSystemStructure_refrigeration.xml", "RefrigerationSystem.ssd")
 RPM = 2.0 * math.pi / 60.0                      # rad/s per rpm
 STATUS_NAMES = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 ERROR = 3
@@ -57,7 +59,7 @@ def bundled_package(fmu: Path) -> str | None:
 def stale_reason(fmu_dir: Path) -> str | None:
     """Why the FMUs in `fmu_dir` must be (re)built, or None if they were built from the current sources."""
     from rotary_vane.fmu_src.build import private_package_name
-    for name in (COMPRESSOR, MOTOR):
+    for name in (COMPRESSOR, MOTOR, LOOP):
         path = fmu_dir / f"{name}.fmu"
         current = private_package_name(name)
         if not path.is_file():
@@ -226,10 +228,10 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 def add_common_options(parser: argparse.ArgumentParser, script: str) -> None:
     """--fmu-dir, --out and --verbose, the same for every harness."""
     parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR,
-                        help="folder of RotaryVaneCompressor.fmu and DriveMotor.fmu; they are built there "
-                             "(python -m rotary_vane.fmu_src.build --out DIR) if missing or stale, i.e. if the private package "
-                             "name rotary_vane_<version>_<source hash>_<model> bundled in an FMU differs from the "
-                             "one of the current sources")
+                        help="folder of RotaryVaneCompressor.fmu, DriveMotor.fmu and RefrigerationLoop.fmu; they "
+                             "are built there (python -m rotary_vane.fmu_src.build --out DIR) if missing or stale, "
+                             "i.e. if the private package name rotary_vane_<version>_<source hash>_<model> bundled in "
+                             "an FMU differs from the one of the current sources")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT_ROOT / script,
                         help="folder for the CSV, PNG and summary files")
     parser.add_argument("--verbose", action="store_true",

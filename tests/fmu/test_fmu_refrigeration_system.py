@@ -1,0 +1,118 @@
+"""Motor + compressor + refrigeration loop as one system (fmu_src/systems/OspSystemStructure_refrigeration.xml and
+RefrigerationSystem.ssd, examples/refrigeration_system.py), with the FMUs built once per session:
+
+* the SSD passes the SSP 1.0 schema (pyssp-standard), its connections are legal and complete, and they are the OSP
+  file's (one system in two formats);
+* libcosim loads each file and runs it a few steps from standstill: the compressor accepts the loop's equal
+  pressures, the motor turns, the pressures start to separate;
+* examples/refrigeration_system.py runs the system in fmpy for 0.12 s (a subprocess, as a user runs it):
+  the refrigerant in loop + chambers (drawn - delivered) stays the start's to 1e-9, the motor turns the shaft, p_d
+  rises and p_s falls from the equal pressures of the start.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+import xml.etree.ElementTree as ElementTree
+
+import numpy as np
+import pytest
+
+import fmu_helpers as H
+
+OSP_FILE, SSD_FILE = "OspSystemStructure_refrigeration.xml", "RefrigerationSystem.ssd"
+OSP = {"osp": "http://opensimulationplatform.com/MSMI/OSPSystemStructure"}
+
+
+def osp_connections(path) -> set:
+    root = ElementTree.parse(path).getroot()
+    found = set()
+    for connection in root.iterfind("osp:Connections/osp:VariableConnection", OSP):
+        ends = {variable.get("causality"): (variable.get("simulator"), variable.get("name"))
+                for variable in connection.iterfind("osp:Variable", OSP)}
+        found.add((*ends["output"], *ends["input"]))
+    return found
+
+
+def test_ssd_is_valid_ssp_and_is_the_osp_files_system(built_fmus):
+    from pyssp_standard.ssd import SSD
+    with SSD(built_fmus / SSD_FILE) as ssd:
+        ssd.__check_compliance__()                       # raises on a schema violation
+        assert ssd.check_connections(unconnected_inputs=True, connector_not_in_system=True) == []
+        connections = {(c.start_element, c.start_connector, c.end_element, c.end_connector)
+                       for c in ssd.connections()}
+    assert connections == osp_connections(built_fmus / OSP_FILE)
+    fluid = {("loop", name, "compressor", name) for name in ("suction_pressure", "suction_enthalpy",
+                                                              "discharge_pressure")} | \
+            {("compressor", name, "loop", name) for name in ("drawn_mass", "drawn_enthalpy", "delivered_mass",
+                                                              "delivered_enthalpy")}
+    assert fluid <= connections and ("motor", "shaft_speed", "compressor", "shaft_speed") in connections
+
+
+LIBCOSIM = r'''
+import gc, json, sys
+from libcosimpy.CosimExecution import CosimExecution
+from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+from libcosimpy.CosimObserver import CosimObserver
+spec = json.loads(sys.argv[1])
+log_output_level(CosimLogLevel.WARNING)
+result = {}
+for file in spec["files"]:
+    path = f"{spec['folder']}/{file}"
+    execution = CosimExecution.from_ssp_file(path) if path.endswith(".ssd") else \
+        CosimExecution.from_osp_config_file(path)
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    index = {info.name.decode(): info.index for info in execution.slave_infos()}
+    def read(component, *names):
+        references = {v.name.decode(): v.reference for v in execution.slave_variables(index[component])}
+        return observer.last_real_values(index[component], [references[n] for n in names])
+    ok = execution.simulate_until(round(spec["stop_time"] * 1e9))
+    result[file] = dict(ok=bool(ok), speed=read("motor", "shaft_speed")[0],
+                        pressures=read("loop", "suction_pressure", "discharge_pressure"),
+                        flows=read("compressor", "drawn_mass", "delivered_mass"))
+    del observer, execution
+    gc.collect()
+print("RESULT " + json.dumps(result))
+'''
+
+
+def test_libcosim_runs_both_files_from_standstill(built_fmus):
+    result, _ = H.run_json_script(LIBCOSIM, dict(folder=str(built_fmus), files=[OSP_FILE, SSD_FILE],
+                                                 stop_time=0.02), built_fmus)
+    for file, run in result.items():
+        assert run["ok"], file
+        assert run["speed"] > 10.0, (file, run)                          # the motor started the shaft
+        p_s, p_d = run["pressures"]
+        assert p_d > p_s, (file, run)                                      # the compressor lifts the pressure
+    assert result[OSP_FILE] == result[SSD_FILE]                           # one system, one result
+
+
+@pytest.fixture(scope="module")
+def example_run(built_fmus, tmp_path_factory):
+    out = tmp_path_factory.mktemp("refrigeration_system")
+    done = subprocess.run([sys.executable, str(H.PROJECT_DIR / "examples" / "refrigeration_system.py"),
+                           "--fmu-dir", str(built_fmus), "--out", str(out), "--duration", "0.12",
+                           "--window-revolutions", "1"], cwd=out, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    with open(out / "refrigeration_system.csv") as stream:
+        rows = list(csv.reader(stream))
+    columns = {name: np.array([float(row[i]) for row in rows[1:]]) for i, name in enumerate(rows[0])}
+    return columns, json.loads((out / "summary.json").read_text()), out
+
+
+def test_example_keeps_the_charge_and_moves_the_pressures_apart(example_run):
+    c, summary, out = example_run
+    for name in ("refrigeration_system.png", "cycle_ph.png"):
+        assert (out / name).stat().st_size > 10_000
+    chambers = c["compressor.drawn_mass"] - c["compressor.delivered_mass"]
+    charge = c["loop.refrigerant_charge_in_loop"] + chambers
+    assert np.max(np.abs(charge / charge[0] - 1.0)) < 1e-9
+    assert np.max(np.abs(chambers)) > 1e-8                                # the chambers' content did change
+    assert summary["charge balance: max |loop + chambers - start| / start"] < 1e-9
+    p_s, p_d = c["loop.suction_pressure"], c["loop.discharge_pressure"]
+    assert p_s[0] == p_d[0]                                               # standstill: equal pressures
+    assert p_d[-1] > p_d[0] and p_s[-1] < p_s[0], (p_s[-1], p_d[-1])
+    assert c["motor.shaft_speed"][-1] > 100.0 and c["motor.motor_torque"].max() > 0.0
