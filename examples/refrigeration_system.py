@@ -69,6 +69,7 @@ RECORDED = {
 }
 COLUMNS = ("time", *(f"{component}.{name}" for component, names in RECORDED.items() for name in names))
 FLUID = "R134a"
+DEFAULT_STEP = 1e-3                     # s, fmpy's communication step
 
 
 # the system file ------------------------------------------------------------------------------------------------
@@ -308,8 +309,9 @@ def parse_arguments(argv=None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], formatter_class=harness.HelpFormatter)
     harness.add_common_options(parser, "refrigeration_system")
     parser.add_argument("--duration", type=number_parser("s"), default=5.0, help="simulated time from standstill [s]")
-    parser.add_argument("--step", type=number_parser("s", 0.0, 0.1), default=1e-3,
-                        help="communication step [s] of the fmpy master (libcosim takes the file's base step)")
+    parser.add_argument("--step", type=number_parser("s", 0.0, 0.1), default=None,
+                        help="communication step [s] of the fmpy master (default 1e-3 s; libcosim takes the file's "
+                             "base step, so --step with --libcosim is refused)")
     parser.add_argument("--window-revolutions", type=int, default=5,
                         help="window of the means (speed, mass flow, capacity, powers, COP) in whole shaft "
                              "revolutions")
@@ -323,6 +325,11 @@ def parse_arguments(argv=None) -> argparse.Namespace:
     if args.window_revolutions < 1:
         raise harness.InputError(f"--window-revolutions = {args.window_revolutions} is out of range: allowed an "
                                  f"integer >= 1")
+    if args.libcosim and args.step is not None:
+        raise harness.InputError(f"--step = {args.step:g} s with --libcosim: libcosim takes the base step of "
+                                 f"{SYSTEM_FILE}; edit the file to change it")
+    if args.step is None and not args.libcosim:
+        args.step = DEFAULT_STEP
     if args.csv_stride < 1:
         raise harness.InputError(f"--csv-stride = {args.csv_stride} is out of range: allowed an integer >= 1")
     return args
