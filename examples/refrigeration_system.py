@@ -89,8 +89,12 @@ def read_system(path: Path) -> dict:
     return dict(step=float(root.find("osp:BaseStepSize", OSP).text), simulators=simulators, connections=connections)
 
 
-# fmpy: a fixed-step Jacobi master over the file's connections -----------------------------------------------------
+# fmpy: a fixed-step master over the file's connections -----------------------------------------------------------
 def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: harness.FmuLog) -> np.ndarray:
+    """The system in fmpy from the file's start values: motor and compressor Jacobi on the outputs at t_k (the loop's
+    to the compressor included), then the loop with the compressor's exchange of the step (module docstring); the
+    recorded columns after initialization and after every step. A refused step raises CouplingFailure with the
+    FMU's message."""
     slaves = {name: Slave(fmu_dir / source, name, log) for name, (source, _) in system["simulators"].items()}
     for name, (_, values) in system["simulators"].items():
         slaves[name].start(values)
