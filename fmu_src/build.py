@@ -274,7 +274,7 @@ def ship_bytecode(fmu: Path) -> None:
             for name in sources:
                 source, target = Path(temporary) / "source.py", Path(temporary) / "compiled.pyc"
                 source.write_bytes(archive.read(name))
-                compile_source(str(source), cfile=str(target), dfile=name, doraise=True,
+                compile_source(str(source), cfile=str(target), dfile=name, doraise=True, optimize=0,
                                invalidation_mode=PycInvalidationMode.CHECKED_HASH)
                 folder, module = name.rsplit("/", 1)
                 compiled.append((f"{folder}/__pycache__/{module[:-3]}.{sys.implementation.cache_tag}.pyc",
