@@ -22,8 +22,11 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from py_compile import PycInvalidationMode
+from py_compile import compile as compile_source
 
 from pythonfmu import FmuBuilder
 
@@ -249,11 +252,36 @@ def build_one(staging: Path, private: str, out_dir: Path, model: str, map_file: 
         if reason is not None:
             print(f"warning: {model}.fmu keeps pythonfmu's binary because the FMI status shim could not be "
                   f"built ({reason.strip()}); {model}.fmu runs, but {SHIM_DEGRADED}", file=sys.stderr)
+        ship_bytecode(fmu)
     finally:
         sys.path.remove(str(staging))
         for name in [m for m in sys.modules if m == private or m.startswith(private + ".")]:
             del sys.modules[name]
     return fmu
+
+
+def ship_bytecode(fmu: Path) -> None:
+    """Add to `fmu` the bytecode of every Python module in its resources (`__pycache__/<module>.<tag>.pyc`, tag of
+    the building Python), so that a first run, which unpacks the FMU into a new folder, does not compile the bundle
+    from source (about 0.1 s of its start-up). The files are checked-hash pycs: Python uses one only if the hash of
+    the source beside it matches (an unpacked source edited by hand is compiled again), never by its modification
+    time, which an unpacking host sets to the time of unpacking. Another Python version looks for its own tag and
+    compiles the sources as without them."""
+    with zipfile.ZipFile(fmu) as archive:
+        sources = [name for name in archive.namelist() if name.startswith("resources/") and name.endswith(".py")]
+        with tempfile.TemporaryDirectory(prefix="rvc_pyc_") as temporary:
+            compiled = []
+            for name in sources:
+                source, target = Path(temporary) / "source.py", Path(temporary) / "compiled.pyc"
+                source.write_bytes(archive.read(name))
+                compile_source(str(source), cfile=str(target), dfile=name, doraise=True, optimize=0,
+                               invalidation_mode=PycInvalidationMode.CHECKED_HASH)
+                folder, module = name.rsplit("/", 1)
+                compiled.append((f"{folder}/__pycache__/{module[:-3]}.{sys.implementation.cache_tag}.pyc",
+                                 target.read_bytes()))
+    with zipfile.ZipFile(fmu, "a") as archive:
+        for name, bytecode in compiled:
+            archive.writestr(name, bytecode, zipfile.ZIP_DEFLATED)
 
 
 def main(argv=None) -> int:

@@ -134,17 +134,19 @@ def boundary_nodes(c, t):
     """(suction, back) FlowNodes at time t: the suction plenum (and idle lobes) and the discharge plenum / back
     chamber. Held (ramp_duration = 0), or during a ramp every field x = x_1 + (x_0 - x_1)(1 - w), w = (t - t_0)/D
     clipped to [0, 1] (docs/model.md §7.3.3: the inputs interpolated over a step, as the speed)."""
-    remaining = 0.0
-    if c.ramp_duration > 0.0:
+    suction = FlowNode(c.suction_temperature, c.suction_density, c.suction_pressure, c.suction_enthalpy)
+    back = FlowNode(c.discharge_temperature, c.discharge_density, c.discharge_pressure, c.discharge_enthalpy)
+    if c.ramp_duration > 0.0:             # held: the values themselves, which the ramp's formula gives at w = 1
         remaining = min(max(1.0 - (t - c.ramp_start) / c.ramp_duration, 0.0), 1.0)
-    return (FlowNode(_ramped(c.suction_temperature_from, c.suction_temperature, remaining),
-                     _ramped(c.suction_density_from, c.suction_density, remaining),
-                     _ramped(c.suction_pressure_from, c.suction_pressure, remaining),
-                     _ramped(c.suction_enthalpy_from, c.suction_enthalpy, remaining)),
-            FlowNode(_ramped(c.discharge_temperature_from, c.discharge_temperature, remaining),
-                     _ramped(c.discharge_density_from, c.discharge_density, remaining),
-                     _ramped(c.discharge_pressure_from, c.discharge_pressure, remaining),
-                     _ramped(c.discharge_enthalpy_from, c.discharge_enthalpy, remaining)))
+        suction = FlowNode(_ramped(c.suction_temperature_from, c.suction_temperature, remaining),
+                           _ramped(c.suction_density_from, c.suction_density, remaining),
+                           _ramped(c.suction_pressure_from, c.suction_pressure, remaining),
+                           _ramped(c.suction_enthalpy_from, c.suction_enthalpy, remaining))
+        back = FlowNode(_ramped(c.discharge_temperature_from, c.discharge_temperature, remaining),
+                        _ramped(c.discharge_density_from, c.discharge_density, remaining),
+                        _ramped(c.discharge_pressure_from, c.discharge_pressure, remaining),
+                        _ramped(c.discharge_enthalpy_from, c.discharge_enthalpy, remaining))
+    return suction, back
 
 
 @kernel

@@ -134,20 +134,31 @@ def _breakpoints(m) -> list[float]:
     return sorted({p for p in points if 0.0 <= p <= half_lobe})
 
 
+@kernel
+def _tabulate_sector(edges, m, nodes, first):
+    """Node rows first + 1 ... first + edges.size - 1 of a SectorTable from row `first`: each value the previous one
+    plus the Gauss-Legendre integral over the interval between consecutive `edges`, each derivative the integrand at
+    the interval's end (one call per smooth piece: called per interval from Python, the dispatch cost more than
+    the integrals)."""
+    for k in range(edges.size - 1):
+        nodes[first + k + 1, 0] = nodes[first + k, 0] + _gauss_legendre(edges[k], edges[k + 1], m)
+        nodes[first + k + 1, 1] = _steiner_integrand(edges[k + 1], m)
+
+
 def sector_table(m, intervals=SECTOR_INTERVALS) -> SectorTable:
     """Tabulate F(x) = int_0^x (1/2 r^2 + d N) du over half a lobe (the laws are even about the valley and the
     mid-lobe): F at each node by Gauss-Legendre over the smooth piece from the previous node, F' = the integrand."""
     points = _breakpoints(m)
     total = points[-1] - points[0]
-    segments, values, derivatives = [], [0.0], [_steiner_integrand(0.0, m)]
-    for start, end in zip(points[:-1], points[1:]):
-        count = max(8, int(round(intervals * (end - start) / total)))
-        segments.append((start, count / (end - start), len(values) - 1))
-        edges = np.linspace(start, end, count + 1)
-        for a, b in zip(edges[:-1], edges[1:]):
-            values.append(values[-1] + _gauss_legendre(a, b, m))
-            derivatives.append(_steiner_integrand(b, m))
-    return SectorTable(np.array(segments, dtype=np.float64), np.column_stack([values, derivatives]))
+    counts = [max(8, int(round(intervals * (end - start) / total))) for start, end in zip(points[:-1], points[1:])]
+    nodes = np.zeros((sum(counts) + 1, 2))
+    nodes[0, 1] = _steiner_integrand(0.0, m)
+    segments, first = [], 0
+    for start, end, count in zip(points[:-1], points[1:], counts):
+        segments.append((start, count / (end - start), first))
+        _tabulate_sector(np.linspace(start, end, count + 1), m, nodes, first)
+        first += count
+    return SectorTable(np.array(segments, dtype=np.float64), nodes)
 
 
 @kernel

@@ -15,9 +15,9 @@ import numpy as np
 
 from ...kernels.kernel import kernel
 from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_SUCTION,
-                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, boundary_nodes,
-                                     chamber_energy, chamber_rates, volumes_with_dead_volume)
-from ...thermo.flow_paths import PATH
+                                     TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, chamber_energy,
+                                     chamber_rates, volumes_with_dead_volume)
+from ...thermo.flow_paths import BACK, PATH, SUCTION
 from ...thermo.leakage import parabolic_flank_length, tapered_gap_length
 from ...thermo.property_table import PropertyTable, table_quality
 from ...thermo.real_gas_nozzle import NozzleTable
@@ -295,10 +295,10 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         gas_status, flows, leading, trailing = chamber_rates_at(t, y, inputs, ctx, dydt)
         if gas_status != 0:
             status = gas_status
-        # the boundary of the moment: the back chamber holds p_d (a moving boundary, docs/model.md §7.3.3)
-        suction, back = boundary_nodes(c, t)
-        pressures = (leading.pressure, trailing.pressure, back.pressure)
-        suction_pressure = suction.pressure
+        # the boundary of the moment, as chamber_rates wrote it into the network's working values: the back
+        # chamber holds p_d (a moving boundary, docs/model.md §7.3.3)
+        pressures = (leading.pressure, trailing.pressure, work.pressure[BACK])
+        suction_pressure = work.pressure[SUCTION]
     else:
         pressures = table_pressures(pose, memory, m, ctx.pressure_table)
         suction_pressure = m.suction_pressure

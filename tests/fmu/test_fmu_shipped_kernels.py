@@ -11,7 +11,9 @@ checks (unreadable or incomplete stamp, another environment, sources or CPU) are
 """
 from __future__ import annotations
 
+import importlib.util
 import json
+import sys
 import zipfile
 from pathlib import Path
 from string import Template
@@ -101,6 +103,24 @@ H.emit({{}})
 """, env=env).check()
     built = sorted(path.name for path in (tmp_path / "cache" / "properties").iterdir())
     assert len(built) == 1 and "operating-point" in built[0] and not set(built) & set(shipped), (built, shipped)
+
+
+def test_the_fmu_ships_the_bytecode_of_every_module_checked_by_the_hash_of_its_source(fmu):
+    """Each Python module in the FMU's resources has its bytecode beside it, in the form this Python's import
+    system uses whatever the unpacked files' modification times (PEP 552: this Python's magic number, flags 0b11 =
+    hash-based and checked, the hash of the source shipped with it), so a first run does not compile the bundle."""
+    with zipfile.ZipFile(fmu) as archive:
+        names = set(archive.namelist())
+        sources = [name for name in names if name.startswith("resources/") and name.endswith(".py")]
+        assert len(sources) > 50, sources
+        for name in sources:
+            folder, module = name.rsplit("/", 1)
+            cached = f"{folder}/__pycache__/{module[:-3]}.{sys.implementation.cache_tag}.pyc"
+            assert cached in names, name
+            header = archive.read(cached)[:16]
+            assert header[:4] == importlib.util.MAGIC_NUMBER, name
+            assert int.from_bytes(header[4:8], "little") == 0b11, name
+            assert header[8:16] == importlib.util.source_hash(archive.read(name)), name
 
 
 @pytest.mark.slow
