@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation
-from rotary_vane.mechanics.loop.integrators import ACCEPTED
+from rotary_vane.mechanics.loop.integrators import ACCEPTED, CONTROL_STEP, CONTROL_STIFFNESS, STABILITY_LIMIT
 from rotary_vane.mechanics.loop.layout import WORK_IN
 
 STEP = 1e-3
@@ -68,6 +68,26 @@ def test_the_real_gas_torque_of_one_step_is_smooth_in_the_speed_with_dormand_pri
         simulation.set_state(saved)
         simulation.advance(saved.time + STEP, speed_rpm=1500.0)
     assert worst <= 1e-5, worst
+
+
+@pytest.mark.parametrize("model, integrator, capped", [("real_gas", "dopri5", True),
+                                                       ("ideal_gas_table", "dopri5", False),
+                                                       ("real_gas", "ark548", False)])
+def test_the_stability_cap_bounds_the_proposed_step_where_there_are_chamber_states(model, integrator, capped):
+    """docs/model.md §8.2: after every advance of a real-gas Dormand-Prince run the proposed step keeps h rho within
+    STABILITY_LIMIT, and over a revolution the cap binds (h rho at the limit) at some step ends; the pressure-table
+    models and ark548 (the chamber states implicit) keep no stiffness estimate and no cap."""
+    params = CompressorParameters(stator_clearance=0.05e-3, pressure_model=model, integrator=integrator)
+    simulation = Simulation(params, keep_history=False)
+    products = []
+    for k in range(1, 201):                        # 40 ms, one revolution at 1500 rpm, in 0.2 ms advances
+        simulation.advance(k * 2e-4)
+        products.append(simulation.control[CONTROL_STEP] * simulation.control[CONTROL_STIFFNESS])
+    if capped:
+        assert max(products) <= STABILITY_LIMIT * (1.0 + 1e-12)
+        assert sum(p >= STABILITY_LIMIT * (1.0 - 1e-9) for p in products) >= 1, max(products)
+    else:
+        assert max(products) == 0.0
 
 
 def implicit_chambers_run():
