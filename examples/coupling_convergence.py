@@ -6,7 +6,9 @@ One step from t_k (both FMUs' states saved with fmi2GetFMUstate, restored before
 steps with the load torque T_i, its speed w_i at t_k + h goes to the compressor, which steps and returns
 shaft_torque_mean T_(i+1); the step is converged when |w_i - w_(i-1)| <= --speed-tolerance (1e-6 rpm), else
 iterated up to --max-iterations (a step not converged by then goes on from its last iterate and is counted, with
-the speed change it was left at). The first guess T_1 is the last step's torque.
+the speed change it was left at). The first guess T_1 is the last step's torque; each next one the torque returned
+(--update fixed-point, the default) or the secant step on the residual T_returned - T_given through the last two
+evaluations (--update secant).
 
 Writes under out/coupling_convergence/: convergence.md (per pressure model: steps, iterations per step median/max,
 steps not converged, the largest speed change left at one, the time of the first, wall time) and summary.json
@@ -15,6 +17,7 @@ steps not converged, the largest speed change left at one, the time of the first
 Usage:  python examples/coupling_convergence.py [--stop-time 1.2] [--step 1e-3] [--speed-tolerance 1e-6]
                                                 [--models real_gas ideal_gas_table] [--motor-power 1500]
                                                 [--relative-tolerance R] [--integrator dopri5|abm4|ark548]
+                                                [--update fixed-point|secant]
 """
 from __future__ import annotations
 
@@ -28,7 +31,7 @@ import numpy as np
 
 from rotary_vane.examples import fmu_harness as harness
 from rotary_vane.examples.cli_types import number_parser
-from rotary_vane.examples.motor_coupling import CoupledSystem, CouplingFailure
+from rotary_vane.examples.motor_coupling import ITERATION_UPDATES, CoupledSystem, CouplingFailure
 
 PRESSURE_MODELS = ("real_gas", "ideal_gas_table")
 
@@ -50,6 +53,9 @@ def parse_arguments(argv=None) -> argparse.Namespace:
     parser.add_argument("--integrator", choices=("dopri5", "abm4", "ark548"), default=None,
                         help="the compressor's integrator (default: the FMU's, dopri5; ark548 integrates the chamber "
                              "states implicitly and gives a smooth one-step map under real gas)")
+    parser.add_argument("--update", choices=ITERATION_UPDATES, default="fixed-point",
+                        help="the next guess of the load torque: the torque the compressor returned (fixed-point) "
+                             "or the secant step through the last two evaluations")
     harness.add_common_options(parser, "coupling_convergence")
     args = parser.parse_args(argv)
     if args.max_iterations < 2:
@@ -58,11 +64,13 @@ def parse_arguments(argv=None) -> argparse.Namespace:
     return args
 
 
-def iterated_step(system: CoupledSystem, t: float, h: float, tolerance: float, max_iterations: int):
-    """One communication step of the iterative master to |w_i - w_(i-1)| <= tolerance: (iterations, converged,
-    the last speed change [rpm], the last change of the returned torque [N.m])."""
+def iterated_step(system: CoupledSystem, t: float, h: float, tolerance: float, max_iterations: int,
+                  update: str = "fixed-point"):
+    """One communication step of the iterative master to |w_i - w_(i-1)| <= tolerance, the next guess by `update`
+    (CoupledSystem.evaluations): (iterations, converged, the last speed change [rpm], the last change of the
+    returned torque [N.m])."""
     last_speed, change, torque_change = None, float("inf"), float("inf")
-    with closing(system.evaluations(t, h, max_iterations)) as evaluations:
+    with closing(system.evaluations(t, h, max_iterations, update)) as evaluations:
         for iteration, speed, given, returned in evaluations:
             torque_change = abs(returned - given)
             if last_speed is not None:
@@ -86,7 +94,8 @@ def convergence_run(system: CoupledSystem, args) -> dict:
     try:
         for k in range(count):
             used, converged, change, torque_change = iterated_step(system, k * args.step, args.step,
-                                                                   args.speed_tolerance, args.max_iterations)
+                                                                   args.speed_tolerance, args.max_iterations,
+                                                                   args.update)
             iterations.append(used)
             if not converged:
                 unconverged.append({"time": k * args.step, "speed_change_rpm": change,
@@ -104,7 +113,7 @@ def table(results: list[dict], args) -> str:
     rtol = "the FMU's default" if args.relative_tolerance is None else f"{args.relative_tolerance:g}"
     method = "the FMU's default" if args.integrator is None else args.integrator
     lines = [f"Iterative master, DriveMotor {args.motor_power:g} W + RotaryVaneCompressor (relative_tolerance "
-             f"{rtol}, integrator {method}) from rest to {args.stop_time:g} s at {args.step:g} s steps; converged: interface speed within "
+             f"{rtol}, integrator {method}; next guess: {args.update}) from rest to {args.stop_time:g} s at {args.step:g} s steps; converged: interface speed within "
              f"{args.speed_tolerance:g} rpm between iterations (at most {args.max_iterations} iterations)", "",
              "| pressure model | steps | iterations / step (median / max) | steps not converged | largest speed "
              "change left [rpm] | largest torque change left [N.m] | first at [s] | speed at the end [rpm] | "

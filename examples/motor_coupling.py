@@ -74,6 +74,7 @@ MOTOR_RECORD = ("shaft_speed", "motor_torque", "electrical_power", "electrical_e
                 "shaft_angle")
 COMPRESSOR_RECORD = ("shaft_torque_mean", "shaft_work", "shaft_angle")
 MAX_ITERATIONS = 30
+ITERATION_UPDATES = ("fixed-point", "secant")    # the iterative master's next guess (CoupledSystem.evaluations)
 
 
 class CouplingFailure(RuntimeError):
@@ -284,14 +285,20 @@ class CoupledSystem:
         self.compressor.step(t, h)
         return 1
 
-    def evaluations(self, t: float, h: float, most: int):
+    def evaluations(self, t: float, h: float, most: int, update: str = "fixed-point"):
         """The iterative master's evaluations of one step from the states at t (saved, restored before each further
         evaluation, freed when the caller closes this generator): the motor steps with a load torque, the compressor
         to the motor's new speed; yields (iteration, that speed, the torque the motor was given, the torque the
-        compressor returned). The first guess is the last step's torque, each next one the torque returned."""
+        compressor returned). The first guess is the last step's torque; each next one is, by `update` (one of
+        ITERATION_UPDATES), the torque returned ("fixed-point", the default) or the secant step on the residual
+        returned - given through the last two evaluations ("secant": Newton's method with the slope of the last
+        two; the torque returned while there is one evaluation only or the two residuals are equal)."""
+        if update not in ITERATION_UPDATES:
+            raise ValueError(f"update = {update!r} is invalid: allowed one of {ITERATION_UPDATES}")
         motor, compressor = self.motor.fmu, self.compressor.fmu
         states = (motor.getFMUstate(), compressor.getFMUstate())
         torque = self.compressor.get("shaft_torque_mean")[0]
+        last = None                       # (given, residual) of the last evaluation
         try:
             for iteration in range(1, most + 1):
                 if iteration > 1:
@@ -305,7 +312,11 @@ class CoupledSystem:
                 self.compressor.step(t, h)
                 returned = self.compressor.get("shaft_torque_mean")[0]
                 yield iteration, speed, torque, returned
+                residual, given = returned - torque, torque
                 torque = returned
+                if update == "secant" and last is not None and residual != last[1]:
+                    torque = given - residual * (given - last[0]) / (residual - last[1])
+                last = (given, residual)
         finally:
             motor.freeFMUstate(states[0])
             compressor.freeFMUstate(states[1])

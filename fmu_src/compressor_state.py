@@ -115,7 +115,8 @@ def check_controls(simulation: dict, machine) -> None:
     """The integrator's controls between advances (mechanics.loop.integrators.advance): the step size finite and within
     what the step-size rules can leave (at most 10 max_step after a DOPRI5 step; a rejection below the smallest step
     16 eps max(|t|, T_c) stops the run), the ABM4 history count and small-error count in their ranges, the previous
-    error estimate 0 (none yet) or in [1e-4, 1]; the speed law of a known shape. `machine`: the kernel record of the
+    error estimate 0 (none yet) or in [1e-4, 1] (DOPRI5's stiffness estimate: any finite value >= 0, the schema's
+    range, since it only lowers a proposed step); the speed law of a known shape. `machine`: the kernel record of the
     state's parameters (mechanics.loop.machine.machine_from_parameters)."""
     control, law = simulation["control"].tolist(), simulation["speed_law"].tolist()
     step, low, high = control[CONTROL_STEP], smallest_step(0.0, machine), 10.0 * machine.max_step

@@ -40,9 +40,10 @@ from .windows import accumulate, close_window
 (ACCEPTED, REJECTED, EVALUATIONS, VALLEY_CROSSINGS, MODE_CHANGES, RESTARTS, EVENT_RETRIES, NEWTON_ITERATIONS,
  JACOBIANS) = range(9)
 COUNTER_SIZE = 9
-# control values kept between advances
-CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR = range(4)
-CONTROL_SIZE = 4
+# control values kept between advances (CONTROL_STIFFNESS: DOPRI5's estimate of the dominant eigenvalue's modulus
+# along the last attempted step [1/s], 0 when there is none; _dopri5_stiffness)
+CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR, CONTROL_STIFFNESS = range(5)
+CONTROL_SIZE = 5
 # step-grid replay (docs/model.md §8.2): grid_counts holds the number of step end times to follow, the index of the
 # next one, the number recorded by this advance and whether the replay fell back to adaptive steps
 GRID_FOLLOW, GRID_NEXT, GRID_RECORDED, GRID_FELL_BACK = range(4)
@@ -52,6 +53,8 @@ GRID_START, GRID_STEP, GRID_END, GRID_REDONE = range(4)
 GRID_COLUMNS = 4
 REPLAY_ERROR_LIMIT = 10.0           # a replayed step whose scaled error exceeds this ends the replay
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
+STABILITY_LIMIT = 2.5               # DOPRI5's proposed step keeps h rho below this (real-axis boundary 3.31;
+#                                     the margin measured, docs/model.md §8.2: 3.0 left jumps in the step map)
 RK4_GROWTH = 5.0                    # the most an ABM4 start (RK4) step grows h by (_abm4_start_growth)
 ABM_HISTORY = 7                     # points kept at the current spacing (step doubling reuses every second one)
 NO_EVENT, END_EVENT, RAMP_EVENT, VALLEY_EVENT, CONTACT_EVENT = range(5)
@@ -276,6 +279,49 @@ def _stage_point(target, y, h, tableau, row, k, count, n):
 # method is its kernels and one line in each dispatcher; the loop (`advance`) is the same for every method.
 
 @kernel
+def _dopri5_stiffness(rate_squares, state_squares):
+    """rho = ||k_7 - k_6|| / ||y_n+1 - Y_6||, the modulus of the dominant eigenvalue of the Jacobian along the step
+    (docs/model.md §8.2, the stability cap): stages 6 and 7 are both at t + h (c_6 = c_7 = 1), so their difference
+    is f(y_n+1) - f(Y_6) ~ J (y_n+1 - Y_6) [Hairer-Wanner, Solving ODEs II, §IV.2; dopri5.f's stiffness detection],
+    in the error norm's scaling. 0 (no estimate) when the two points coincide or the stages are not finite."""
+    if not (state_squares > 0.0 and rate_squares < math.inf):
+        return 0.0
+    rho = math.sqrt(rate_squares / state_squares)
+    return rho if rho < math.inf else 0.0
+
+
+@kernel
+def _stability_capped(h, control):
+    """The proposed step kept inside DOPRI5's stability region: h rho <= STABILITY_LIMIT (docs/model.md §8.2). A
+    continuous function of the state where rho is, so it adds no discrete decision; it only proposes steps."""
+    rho = control[CONTROL_STIFFNESS]
+    if rho > 0.0:
+        return min(h, STABILITY_LIMIT / rho)
+    return h
+
+
+@kernel
+def _error_after_rejection(step, err, finite):
+    """Shrink by the error's own factor (at most 5x) if the error rejected the step, else halve."""
+    if err > 1.0 and finite:
+        return step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
+    return 0.5 * step
+
+
+@kernel
+def _pi_after_acceptance(control, step, err, event, rejected_last):
+    """PI control: h_new = step min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)), no growth right after a
+    rejection; a step shortened by an event does not shrink the step size."""
+    err = max(err, 1e-10)
+    factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * control[CONTROL_PREVIOUS_ERROR] ** PI_BETA))
+    if rejected_last:
+        factor = min(factor, 1.0)
+    control[CONTROL_PREVIOUS_ERROR] = max(err, 1e-4)
+    h = control[CONTROL_STEP]
+    control[CONTROL_STEP] = max(h, step * factor) if event != NO_EVENT else step * factor
+
+
+@kernel
 def dopri5_begin(control, history, work, n):
     """The PI controller's previous error starts at 1e-4 (Hairer's DOPRI5)."""
     if control[CONTROL_PREVIOUS_ERROR] <= 0.0:
@@ -301,33 +347,32 @@ def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
         failure |= evaluate(t + DOPRI5_C[i] * h, target, ctx, memory, work_rows[i], out, i == STAGES - 1)
     counters[EVALUATIONS] += STAGES - 1
     squares = 0.0
+    rate_squares = 0.0
+    state_squares = 0.0
     for i in range(n):
         error = 0.0
         for j in range(STAGES):
             error += DOPRI5_E[j] * work[j, i]
-        squares += (h * error / _tolerance(i, max(abs(y[i]), abs(work[W_Y_NEW, i])), m, c)) ** 2
+        scale = _tolerance(i, max(abs(y[i]), abs(work[W_Y_NEW, i])), m, c)
+        squares += (h * error / scale) ** 2
+        rate_squares += ((work[STAGES - 1, i] - work[STAGES - 2, i]) / scale) ** 2
+        state_squares += ((work[W_Y_NEW, i] - work[W_STAGE, i]) / scale) ** 2
+    # the cap is for the chambers' pressure relaxation: under the pressure tables (no chamber states) there is none
+    control[CONTROL_STIFFNESS] = _dopri5_stiffness(rate_squares, state_squares) if n > GAS_BLOCK else 0.0
     return failure, math.sqrt(squares / n)
 
 
 @kernel
 def dopri5_after_rejection(control, step, err, finite):
-    """Shrink by the error's own factor (at most 5x) if the error rejected the step, else halve."""
-    if err > 1.0 and finite:
-        return step * max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA))
-    return 0.5 * step
+    """The error's shrink (_error_after_rejection), kept inside the stability region (_stability_capped)."""
+    return _stability_capped(_error_after_rejection(step, err, finite), control)
 
 
 @kernel
 def dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
-    """PI control: h_new = step min(10, max(0.2, 0.9 err^-(0.2 - 0.75 beta) err_prev^beta)), no growth right after a
-    rejection; a step shortened by an event does not shrink the step size."""
-    err = max(err, 1e-10)
-    factor = min(10.0, max(0.2, 0.9 * err ** -(0.2 - 0.75 * PI_BETA) * control[CONTROL_PREVIOUS_ERROR] ** PI_BETA))
-    if rejected_last:
-        factor = min(factor, 1.0)
-    control[CONTROL_PREVIOUS_ERROR] = max(err, 1e-4)
-    h = control[CONTROL_STEP]
-    control[CONTROL_STEP] = max(h, step * factor) if event != NO_EVENT else step * factor
+    """The PI control's next step (_pi_after_acceptance), kept inside the stability region (_stability_capped)."""
+    _pi_after_acceptance(control, step, err, event, rejected_last)
+    control[CONTROL_STEP] = _stability_capped(control[CONTROL_STEP], control)
 
 
 @kernel
@@ -662,15 +707,17 @@ def ark548_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
 
 @kernel
 def ark548_after_rejection(control, step, err, finite):
-    return dopri5_after_rejection(control, step, err, finite)
+    """DOPRI5's shrink without its stability cap (the stiff chamber states are implicit)."""
+    return _error_after_rejection(step, err, finite)
 
 
 @kernel
 def ark548_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters):
-    """DOPRI5's step control; the chambers switched at a valley: J is formed again."""
+    """DOPRI5's PI control without its stability cap (the stiff chamber states are implicit); the chambers
+    switched at a valley: J is formed again."""
     if event == VALLEY_EVENT and n > GAS_BLOCK:
         history[H_JACOBIAN, JACOBIAN_CURRENT] = 0.0
-    dopri5_after_acceptance(control, step, err, event, restart, rejected_last, history, work, n, m, counters)
+    _pi_after_acceptance(control, step, err, event, rejected_last)
 
 
 
