@@ -66,18 +66,25 @@ class CompressorParameters:
     slot_clearance: float = _number(0.0, "m", 0.0, 1e-3, "total (diametral) vane-slot clearance c_R = w - t")
     stator_clearance: float = _number(0.0, "m", 0.0, 1e-3, "radial vane-stator clearance c_S (also the valley gap)")
     # materials and contact (docs/model.md §5)
-    vane_density: float = _number(7850.0, "kg/m3", 100.0, 25000.0, "vane material density")
+    # no vane material is lighter than the polymers (PEEK 1300, phenolic 1400, carbon-graphite 1700 kg/m3); lighter
+    # vanes made every time constant against the contacts shorter and stalled the sweep (docs/model.md §13.4)
+    vane_density: float = _number(7850.0, "kg/m3", 1000.0, 25000.0, "vane material density")
     rotor_inertia: float = _number(5.5e-4, "kg.m2", 0.0, 10.0, "rotor moment of inertia J2 about its axis")
     youngs_modulus: float = _number(207e9, "Pa", 1e10, 1e12, "Young's modulus of all bodies")
     poisson_ratio: float = _number(0.30, "1", 0.0, 0.5, "Poisson's ratio of all bodies")
     restitution: float = _number(0.9, "1", 0.1, 1.0, "coefficient of restitution c_e of the Lankarani-Nikravesh law")
-    onset_velocity_floor: float = _number(0.01, "m/s", 1e-6, 10.0, "floor v_floor on the stored impact velocity")
+    # the numerical settings of the contact laws are declared where a revolution stays tractable (docs/model.md §13.4,
+    # §11.5): below 0.1 mm/s the damping c_d = 0.75 (1 - c_e^2) F / v_floor and below 10 um/s the friction slope
+    # 3 mu F / v_0 give the vane time constants of nanoseconds that held the sweep's explicit steps at 1e-9..1e-11 s,
+    # and below 1 mm/s the steps of a revolution grow as 1/v_floor; a floor above 1 m/s (above the impact velocities
+    # it should leave alone) takes the damping out of every impact
+    onset_velocity_floor: float = _number(0.01, "m/s", 1e-3, 1.0, "floor v_floor on the stored impact velocity")
     stiffness_model: str = _choice("hertz_point", STIFFNESS_MODELS,
                                    "contact stiffness: Hertz point contact (option P) or Johnson line contact (L)")
     friction_model: str = _choice("threlfall", FRICTION_MODELS, "regularised Coulomb friction law of docs/model.md §5.3")
     friction_coefficient: float = _number(0.085, "1", 0.0, 0.5, "Coulomb friction coefficient mu, all contacts")
-    friction_velocity: float = _number(1e-3, "m/s", 1e-7, 1.0, "regularisation velocity v_0 of the friction law")
-    friction_velocity_full: float = _number(1e-3, "m/s", 1e-7, 1.0,
+    friction_velocity: float = _number(1e-3, "m/s", 1e-5, 1.0, "regularisation velocity v_0 of the friction law")
+    friction_velocity_full: float = _number(1e-3, "m/s", 1e-5, 1.0,
                                             "velocity v_1 of full sliding friction (ambrosio law only)")
     # gas (docs/model.md §6-§7)
     pressure_model: str = _choice("real_gas", PRESSURE_MODELS,

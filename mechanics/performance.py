@@ -14,9 +14,8 @@ import numpy as np
 from .contact.modes import MODE_COUNT, distinct_modes
 from .loop.outputs import O, OUTPUT_SIZE
 from .contact.regions import REGION_COUNT, SLOT_REGIONS, TIP_REGIONS
-from .loop.windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_GAP_WORK, ACC_INDICATED_WORK, ACC_LAW_EXCESS,
-                           ACC_MAX_FORCE, ACC_MAX_TILT, ACC_STATOR_MOMENT, MASKS, MODE_KEYS, RECORD_ACCUMULATORS,
-                           RECORD_END, RECORD_LOBE, RECORD_START)
+from .loop.windows import (ACC_DWELL, ACC_GAP_MOMENT, ACC_LAW_EXCESS, ACC_MAX_FORCE, ACC_MAX_TILT, ACC_STATOR_MOMENT,
+                           MASKS, MODE_KEYS, RECORD_ACCUMULATORS, RECORD_END, RECORD_LOBE, RECORD_START)
 
 
 @dataclass(frozen=True)
@@ -105,7 +104,8 @@ def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: floa
     accumulators = records[:, RECORD_ACCUMULATORS:]
     duration = end[O.time] - start[O.time]
     work = {name: end[getattr(O, name)] - start[getattr(O, name)]
-            for name in ("work_in", "work_out", "work_friction", "work_damping", "work_elastic")}
+            for name in ("work_in", "work_out", "work_friction", "work_damping", "work_elastic", "work_indicated",
+                         "work_gap")}
     kinetic = end[O.kinetic_energy] - start[O.kinetic_energy]
     elastic = end[O.contact_energy] - start[O.contact_energy]
     rotor = 0.5 * rotor_inertia * (end[O.rotor_speed] ** 2 - start[O.rotor_speed] ** 2)
@@ -113,8 +113,7 @@ def summarise_records(records: np.ndarray, rotor_inertia: float, min_dwell: floa
     switches = work["work_elastic"] - elastic     # the elastic forces' work that no potential stores
     residual = (work["work_in"] - work["work_out"] - work["work_friction"] - work["work_damping"] - stored
                 - switches)
-    indicated = accumulators[:, ACC_INDICATED_WORK].sum()
-    gap = accumulators[:, ACC_GAP_WORK].sum()
+    indicated, gap = work["work_indicated"], work["work_gap"]
     ledger = work["work_in"] - indicated - gap - work["work_friction"] - work["work_damping"] - stored - switches
     angle_turned = end[O.rotor_angle] - start[O.rotor_angle]
     extended = accumulators[:, ACC_DWELL:ACC_DWELL + MODE_KEYS].sum(axis=0)

@@ -29,7 +29,7 @@ from ..gas.gas_loads import combine, gap_moment, gas_load_basis, slot_side
 from ..geometry.kinematics import pose_of, reported_kinematics, vane_pose
 from .layout import (ANGULAR_VELOCITY, ANGLE, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LOBE_COUNT,
                      MEM_LOBE_START, TIP_ON_FLAT_FACE, VX, VY, WORK_DAMPING, WORK_ELASTIC, WORK_FRICTION,
-                     WORK_IN, WORK_OUT, X, Y)
+                     WORK_GAP, WORK_IN, WORK_INDICATED, WORK_OUT, X, Y)
 from .machine import REAL_GAS_MODEL
 from .outputs import O, OUTPUT_NAMES, REAL_GAS_COLUMNS
 
@@ -123,6 +123,16 @@ def chamber_powers(geometry, pressures):
 
 
 @kernel
+def chamber_work_rates(geometry, pressures, dydt):
+    """dW_ind/dt = P_ind and dW_gap/dt = P_gap (docs/model.md §6.4): the two parts of W_out integrated as states, so
+    the ledger's terms are work differences like the others (the steps of the same method; a trapezoidal sum over the
+    accepted steps left the ledger of an impacting vane at 1.1e-4 of the shaft work)."""
+    indicated, gap = chamber_powers(geometry, pressures)
+    dydt[WORK_INDICATED] = indicated
+    dydt[WORK_GAP] = gap
+
+
+@kernel
 def equations_of_motion(pose, contacts, gas, m, dydt):
     """Reduced equations of motion (docs/model.md §3.1) and the work integrals (§6.4); returns (a_x, a_y, alpha,
     T_d):  q_ddot3 = Q3/[m3, m3, J3];  lambda6 = Q2phi - J2 theta_ddot;  T_d = -lambda6;
@@ -198,6 +208,8 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
     out[O.work_friction] = y[WORK_FRICTION]
     out[O.work_damping] = y[WORK_DAMPING]
     out[O.work_elastic] = y[WORK_ELASTIC]
+    out[O.work_indicated] = y[WORK_INDICATED]
+    out[O.work_gap] = y[WORK_GAP]
     for k in range(REAL_GAS_COLUMN_COUNT):
         out[REAL_GAS_FIRST_COLUMN + k] = math.nan
 
@@ -286,8 +298,7 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         status = TIP_ON_FLAT_FACE
     contacts = contact_loads(pose, slots, tip, memory, m, out)
     real_gas = m.pressure_model == REAL_GAS_MODEL
-    if real_gas or report:
-        geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
+    geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
     if real_gas:
         inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
@@ -304,6 +315,7 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         suction_pressure = m.suction_pressure
     gas = combine(basis, pressures[0], pressures[1], pressures[2], tip, pose.omega, m)
     accelerations = equations_of_motion(pose, contacts, gas, m, dydt)
+    chamber_work_rates(geometry, pressures, dydt)
     if report:
         report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure,
                        geometry, memory, m, out)

@@ -1,8 +1,9 @@
 """Index layout of the state and memory arrays the time loop shares with Python, and its status codes
 (docs/model.md §8.1). The output row's layout is in mechanics.loop.outputs.
 
-- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp and the work of the
-  elastic contact forces W_el (docs/model.md §6.4);
+- state y: vane pose and velocity, then the work integrals W_in, W_out, W_fric, W_damp, the work of the
+  elastic contact forces W_el and the two parts of W_out, the indicated work W_ind and the gap work W_gap
+  (docs/model.md §6.4);
   under real gas the chamber model's state block follows (thermo.chamber_model, from GAS_BLOCK on);
 - memory: non-state values updated only after accepted steps (warm start, lobe, impact velocities, mode).
 """
@@ -11,8 +12,9 @@ from ...thermo.chamber_model import GAS_STATE_SIZE
 from ..contact.regions import MEMORY_SLOTS
 
 # state vector
-X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING, WORK_ELASTIC = range(11)
-VANE_STATE_SIZE = 11
+(X, Y, ANGLE, VX, VY, ANGULAR_VELOCITY, WORK_IN, WORK_OUT, WORK_FRICTION, WORK_DAMPING, WORK_ELASTIC, WORK_INDICATED,
+ WORK_GAP) = range(13)
+VANE_STATE_SIZE = 13
 GAS_BLOCK = VANE_STATE_SIZE                      # first index of the chamber states (real gas)
 REAL_GAS_STATE_SIZE = VANE_STATE_SIZE + GAS_STATE_SIZE
 

@@ -101,6 +101,10 @@ STEP_OUTPUTS = (
     Output("work_damping", "J", "cumulative contact damping work"),
     Output("work_elastic", "J", "cumulative work of the elastic contact forces, integral of sum F_el delta_dot "
                                 "(docs/model.md §6.4)"),
+    Output("work_indicated", "J", "cumulative indicated work on the gas of all chambers W_ind, integral of "
+                                  "indicated_power (docs/model.md §6.4)"),
+    Output("work_gap", "J", "cumulative work on the sweep of the open gaps W_gap, integral of gap_power "
+                            "(docs/model.md §6.4)"),
     Output("leading_volume", "m3", "leading-chamber volume with the dead volume (docs/model.md §7.2)"),
     Output("trailing_volume", "m3", "trailing-chamber volume with the dead volume (docs/model.md §7.2)"),
     Output("back_volume", "m3", "back-chamber volume: the slot below the vane's bottom face (docs/model.md §7.2)"),

@@ -3,8 +3,8 @@
 
 The loop lands on every valley (every 2 pi / z of rotor angle), so lobes are exact windows and a revolution is z
 consecutive lobes. The `window` array holds the output row at the start of the current lobe and what accumulates
-over it at each accepted step: trapezoidal time integrals of the `INTEGRATED_COLUMNS` (stator and gap moments,
-indicated and gap powers), the largest normal force per region and the largest |tilt|, and the dwell of every
+over it at each accepted step: trapezoidal time integrals of the `INTEGRATED_COLUMNS` (stator and gap moments; the
+works are states, their differences come from the start and end rows), the largest normal force per region and the largest |tilt|, and the dwell of every
 extended contact mode. At each valley the loop writes
 one lobe record (`RECORD_*` layout: the start row, the end row, the accumulators) and starts the next window;
 mechanics.performance turns records into figures. Nothing of this runs in Python per accepted step.
@@ -26,10 +26,10 @@ from ..contact.regions import REGION_COUNT
 MASKS = 1 << REGION_COUNT
 MODE_KEYS = MASKS * CANDIDATE_TYPES * CANDIDATE_TYPES
 # columns integrated over time (trapezoidal over the accepted steps); their integrals come first in the accumulators
-INTEGRATED_COLUMNS = (O.stator_reaction_moment, O.gap_moment, O.indicated_power, O.gap_power)
+INTEGRATED_COLUMNS = (O.stator_reaction_moment, O.gap_moment)
 INTEGRALS = len(INTEGRATED_COLUMNS)
 # accumulators (offsets into the accumulator part of a window or record)
-ACC_STATOR_MOMENT, ACC_GAP_MOMENT, ACC_INDICATED_WORK, ACC_GAP_WORK = range(INTEGRALS)
+ACC_STATOR_MOMENT, ACC_GAP_MOMENT = range(INTEGRALS)
 ACC_MAX_TILT = INTEGRALS
 ACC_LAW_EXCESS = ACC_MAX_TILT + 1
 ACC_MAX_FORCE = ACC_LAW_EXCESS + 1                 # one per region

@@ -147,6 +147,19 @@ def test_out_of_range_values_rejected():
     CompressorParameters(lobes=10, suction_close_angle=2 * math.pi / 10)
 
 
+def test_contact_settings_that_stall_a_revolution_are_refused_before_any_work():
+    """docs/model.md §13.4, §11.5: values the random sweep drew at the ends of the old ranges and stopped at the work
+    bound (steps of 1e-9..1e-11 s): an onset-velocity floor of 2 um/s, 0.5 mm/s or 4.7 m/s, a friction
+    regularisation velocity of 0.4 um/s, a vane of 234 kg/m3. Each is refused by name, with the allowed range, before
+    a Simulation exists."""
+    for name, value, unit in (("onset_velocity_floor", 2.12e-6, "m/s"), ("onset_velocity_floor", 5.0e-4, "m/s"),
+                              ("onset_velocity_floor", 4.7, "m/s"), ("friction_velocity", 4.1e-7, "m/s"),
+                              ("friction_velocity_full", 2.6e-7, "m/s"), ("vane_density", 234.0, "kg/m3")):
+        message = assert_rejected(name, value)
+        assert unit in message.split("allowed")[1], message
+    CompressorParameters(onset_velocity_floor=2e-3, friction_velocity=2e-5, vane_density=1300.0)   # inside: runs
+
+
 def test_replace_validates():
     p = CompressorParameters()
     with pytest.raises(ValueError, match="stator_clearance"):
