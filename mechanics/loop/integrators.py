@@ -27,7 +27,7 @@ from .ark548_tableau import ARK_B, ARK_C, ARK_E, ARK_EXPLICIT, ARK_GAMMA, ARK_IM
 from .dynamics import KernelContext, chamber_inputs_at, chamber_rates_at, evaluate
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
                      MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
-                     RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_LIMIT, X, Y)
+                     RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_IN, WORK_LIMIT, X, Y)
 from .machine import ABM4, ARK548, REAL_GAS_MODEL
 from .outputs import O
 from ..contact.regions import MEMORY_SLOTS, REGION_COUNT, REGION_MEMORY_SLOT
@@ -280,10 +280,11 @@ def _stage_point(target, y, h, tableau, row, k, count, n):
 
 @kernel
 def _dopri5_stiffness(rate_squares, state_squares):
-    """rho = ||k_7 - k_6|| / ||y_n+1 - Y_6||, the modulus of the dominant eigenvalue of the Jacobian along the step
-    (docs/model.md §8.2, the stability cap): stages 6 and 7 are both at t + h (c_6 = c_7 = 1), so their difference
-    is f(y_n+1) - f(Y_6) ~ J (y_n+1 - Y_6) [Hairer-Wanner, Solving ODEs II, §IV.2; dopri5.f's stiffness detection],
-    in the error norm's scaling. 0 (no estimate) when the two points coincide or the stages are not finite."""
+    """rho = ||k_7 - k_6|| / ||y_n+1 - Y_6|| over the states that feed back (vane, chambers; not the quadratures),
+    the modulus of the dominant eigenvalue of the Jacobian along the step (docs/model.md §8.2, the stability cap):
+    stages 6 and 7 are both at t + h (c_6 = c_7 = 1), so their difference is f(y_n+1) - f(Y_6) ~ J (y_n+1 - Y_6)
+    [Hairer-Wanner, Solving ODEs II, §IV.2; dopri5.f's stiffness detection], in the error norm's scaling. 0 (no
+    estimate) when the two points coincide or the stages are not finite."""
     if not (state_squares > 0.0 and rate_squares < math.inf):
         return 0.0
     rho = math.sqrt(rate_squares / state_squares)
@@ -355,8 +356,9 @@ def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
             error += DOPRI5_E[j] * work[j, i]
         scale = _tolerance(i, max(abs(y[i]), abs(work[W_Y_NEW, i])), m, c)
         squares += (h * error / scale) ** 2
-        rate_squares += ((work[STAGES - 1, i] - work[STAGES - 2, i]) / scale) ** 2
-        state_squares += ((work[W_Y_NEW, i] - work[W_STAGE, i]) / scale) ** 2
+        if i < WORK_IN or GAS_BLOCK <= i < GAS_BLOCK + CHAMBER_STATES:     # the states that feed back
+            rate_squares += ((work[STAGES - 1, i] - work[STAGES - 2, i]) / scale) ** 2
+            state_squares += ((work[W_Y_NEW, i] - work[W_STAGE, i]) / scale) ** 2
     # the cap is for the chambers' pressure relaxation: under the pressure tables (no chamber states) there is none
     control[CONTROL_STIFFNESS] = _dopri5_stiffness(rate_squares, state_squares) if n > GAS_BLOCK else 0.0
     return failure, math.sqrt(squares / n)
