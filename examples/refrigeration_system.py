@@ -55,6 +55,7 @@ import numpy as np                         # noqa: E402
 from rotary_vane.examples import fmu_harness as harness                   # noqa: E402
 from rotary_vane.examples.cli_types import number_parser                  # noqa: E402
 from rotary_vane.examples.motor_coupling import CouplingFailure, Slave     # noqa: E402
+from rotary_vane.examples.steady_cycle import independent_cycle, swept_volume  # noqa: E402
 
 SYSTEM_FILE = "OspSystemStructure_refrigeration.xml"
 OSP = {"osp": "http://opensimulationplatform.com/MSMI/OSPSystemStructure"}
@@ -231,12 +232,28 @@ def summary_of(c: dict, means: dict, args, wall: float) -> dict:
         "time to steady state [s]": settled if reached else None, "steady state reached": reached,
         "last-10 % drift of p_s, p_d, mass flow, capacity (relative)": drift,
         "last window": {"speed [rpm]": last["speed"], "suction pressure [Pa]": last["suction_pressure"],
-                        "discharge pressure [Pa]": last["discharge_pressure"], "mass flow [kg/s]": last["mass_flow"],
+                        "discharge pressure [Pa]": last["discharge_pressure"],
+                        "suction enthalpy [J/kg]": last["suction_enthalpy"], "mass flow [kg/s]": last["mass_flow"],
                         "capacity [W]": last["capacity"], "electrical power [W]": last["electrical_power"],
                         "shaft power [W]": last["shaft_power"], "COP": last["cop"]},
         "charge balance: max |loop + chambers - start| / start": float(np.max(charge_error)),
         "refrigerant in the chambers at the end [kg]": float(chambers[-1]),
     }
+
+
+def cross_check(means: dict, displacement: float) -> dict:
+    """The last window against the independent steady cycle of examples/steady_cycle.py (README "Refrigeration
+    system", docs/model.md §16.7): the cycle's capacity and COP, the system's, and their relative differences."""
+    last = {name: float(values[-1]) for name, values in means.items()}
+    cycle = independent_cycle(FLUID, last["suction_pressure"], last["suction_enthalpy"], last["discharge_pressure"],
+                              last["mass_flow"], last["speed"] * harness.RPM / (2.0 * math.pi), last["shaft_power"],
+                              last["electrical_power"], displacement)
+    condenser_outlet = last["discharge_enthalpy"] - last["condenser_heat_flow"] / last["mass_flow"]
+    return {**cycle, "swept volume [m3]": displacement,
+            "system capacity [W] (evaporator + suction line)": last["capacity"], "system COP": last["cop"],
+            "capacity: system / cycle - 1": last["capacity"] / cycle["capacity [W]"] - 1.0,
+            "COP: system / cycle - 1": last["cop"] / cycle["COP"] - 1.0,
+            "condenser outlet enthalpy [J/kg], the loop's balance": condenser_outlet}
 
 
 # plots ----------------------------------------------------------------------------------------------------------
@@ -369,6 +386,9 @@ def main(argv=None) -> int:
     summary["cycle (p [Pa], h [J/kg]), last window"] = {name: [float(p), float(h)] for name, (p, h) in points.items()}
     state = "" if summary["steady state reached"] else ", not steady"
     plot_cycle(points, out / "cycle_ph.png", f"R134a cycle at t = {args.duration:g} s ({engine}{state})")
+    if summary["steady state reached"]:
+        summary["independent steady cycle (CoolProp), last window"] = cross_check(
+            means, swept_volume(system["simulators"]["compressor"][1]))
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     print(json.dumps(summary, indent=1))
     print(f"wrote {out / 'refrigeration_system.csv'}, refrigeration_system.png, cycle_ph.png, summary.json")
