@@ -142,14 +142,16 @@ def test_fmpy_and_libcosim_agree_over_the_first_seconds(built_fmus, tmp_path):
     assert last["discharge pressure [Pa]"] > 2.0 * last["suction pressure [Pa]"] and last["capacity [W]"] > 500.0
 
 
-STEADY_DURATION = 50.0          # s from standstill: steady from about 40 s (README "Refrigeration system")
+STEADY_DURATION = 60.0          # s from standstill: steady from about 40 s (README "Refrigeration system")
 
 
 @pytest.mark.slow
 def test_steady_state_matches_an_independent_steady_cycle(built_fmus, tmp_path):
     """The system run to steady state in libcosim: its last-window capacity (evaporator + suction line) and COP
-    against the cycle of examples/steady_cycle.py at the same p_s, h_s, p_d with the compressor's own eta_v and
-    eta_is (CoolProp states, saturated liquid at the valve), within 1 %; the summary reports that same cycle."""
+    against the cycle of examples/steady_cycle.py at the same p_s, h_s, p_d with the compressor's own eta_v, eta_is
+    and drawn energy per drawn mass (CoolProp states, saturated liquid at the valve), within 1 %; the summary
+    reports that same cycle. (The textbook cycle, drawing h_s, is 1.4 % above: the compressor's back-flow returns
+    that energy to the evaporator, docs/model.md §16.5, §16.7.)"""
     from rotary_vane.examples.steady_cycle import independent_cycle, swept_volume
     summary = run_example(built_fmus, tmp_path / "steady", "--duration", str(STEADY_DURATION), "--libcosim",
                           "--window-revolutions", "25", "--csv-stride", "1000")
@@ -161,10 +163,13 @@ def test_steady_state_matches_an_independent_steady_cycle(built_fmus, tmp_path):
                     if element[0].tag.endswith("Real") or element[0].tag.endswith("Integer")}
     cycle = independent_cycle("R134a", last["suction pressure [Pa]"], last["suction enthalpy [J/kg]"],
                               last["discharge pressure [Pa]"], last["mass flow [kg/s]"], last["speed [rpm]"] / 60.0,
-                              last["shaft power [W]"], last["electrical power [W]"], swept_volume(start_values))
-    print(f"steady at {STEADY_DURATION:g} s: capacity {last['capacity [W]']:.6g} W vs cycle {cycle['capacity [W]']:.6g} "
-          f"W, COP {last['COP']:.6g} vs {cycle['COP']:.6g}, eta_v {cycle['volumetric efficiency']:.4f}, eta_is "
-          f"{cycle['isentropic efficiency']:.4f}, wall {summary['wall time [s]']:.0f} s")
+                              last["shaft power [W]"], last["electrical power [W]"], swept_volume(start_values),
+                              last["drawn energy / drawn mass [J/kg]"])
+    print(f"steady at {STEADY_DURATION:g} s: capacity {last['capacity [W]']:.6g} W vs cycle "
+          f"{cycle['capacity [W]']:.6g} W, COP {last['COP']:.6g} vs {cycle['COP']:.6g}, eta_v {cycle['volumetric efficiency']:.4f}, eta_is "
+          f"{cycle['isentropic efficiency']:.4f}, textbook cycle (h_s drawn) "
+          f"{cycle['textbook capacity m_dot (h_s - h_valve,in) [W]']:.6g} W, COP {cycle['textbook COP']:.6g}, wall "
+          f"{summary['wall time [s]']:.0f} s")
     assert last["capacity [W]"] == pytest.approx(cycle["capacity [W]"], rel=1e-2)
     assert last["COP"] == pytest.approx(cycle["COP"], rel=1e-2)
     reported = summary["independent steady cycle (CoolProp), last window"]
