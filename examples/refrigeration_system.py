@@ -254,14 +254,12 @@ def cross_check(means: dict, displacement: float) -> dict:
     cycle = independent_cycle(FLUID, last["suction_pressure"], last["suction_enthalpy"], last["discharge_pressure"],
                               last["mass_flow"], last["speed"] * harness.RPM / (2.0 * math.pi), last["shaft_power"],
                               last["electrical_power"], displacement, last["drawn_enthalpy"])
-    condenser_outlet = last["discharge_enthalpy"] - last["condenser_heat_flow"] / last["mass_flow"]
     return {**cycle, "swept volume [m3]": displacement,
             "system capacity [W] (evaporator + suction line)": last["capacity"], "system COP": last["cop"],
             "capacity: system / cycle - 1": last["capacity"] / cycle["capacity [W]"] - 1.0,
             "COP: system / cycle - 1": last["cop"] / cycle["COP"] - 1.0,
             "capacity: system / textbook cycle - 1":
-                last["capacity"] / cycle["textbook capacity m_dot (h_s - h_valve,in) [W]"] - 1.0,
-            "condenser outlet enthalpy [J/kg], the loop's balance": condenser_outlet}
+                last["capacity"] / cycle["textbook capacity m_dot (h_s - h_valve,in) [W]"] - 1.0}
 
 
 # plots ----------------------------------------------------------------------------------------------------------
