@@ -26,7 +26,9 @@ time after which the window means of p_s, p_d, mass flow and capacity all stay w
 window mean; reported as reached only if none of them drifted by more than a tenth of --settle over the last 10 %
 of the run. The cycle on a p-h diagram (last window): suction (p_s, h_s), discharge (p_d, delivered enthalpy /
 delivered mass), condenser outlet (p_d, h_d - Q_c / m), evaporator inlet (p_s, same enthalpy: the valve is
-isenthalpic), on CoolProp's R134a saturation dome (CoolProp only draws the dome; the FMUs use none).
+isenthalpic), on CoolProp's R134a saturation dome (CoolProp only draws the dome; the FMUs use none). A run that
+reached steady state is checked against an independent steady cycle from CoolProp states (examples/steady_cycle.py,
+docs/model.md §16.7): its capacity and COP, the system's and their relative differences go into summary.json.
 
 Writes under --out: refrigeration_system.csv (every communication point, or every --csv-stride-th),
 refrigeration_system.png (speed, torques, pressures, mass flow, capacity and COP over time), cycle_ph.png,
@@ -55,6 +57,7 @@ import numpy as np                         # noqa: E402
 from rotary_vane.examples import fmu_harness as harness                   # noqa: E402
 from rotary_vane.examples.cli_types import number_parser                  # noqa: E402
 from rotary_vane.examples.motor_coupling import CouplingFailure, Slave     # noqa: E402
+from rotary_vane.examples.steady_cycle import independent_cycle, swept_volume  # noqa: E402
 
 SYSTEM_FILE = "OspSystemStructure_refrigeration.xml"
 OSP = {"osp": "http://opensimulationplatform.com/MSMI/OSPSystemStructure"}
@@ -180,7 +183,7 @@ def window_means(c: dict, revolutions: int) -> dict:
     def rate(series):
         return np.diff(at(series)) / span
 
-    delivered = np.diff(at(c["compressor.delivered_mass"]))
+    delivered, drawn = np.diff(at(c["compressor.delivered_mass"])), np.diff(at(c["compressor.drawn_mass"]))
     means = {"time": times[1:], "speed": turn / span / harness.RPM,
              "mass_flow": delivered / span, "drawn_mass_flow": rate(c["compressor.drawn_mass"]),
              "electrical_power": rate(c["motor.electrical_energy"]), "shaft_power": rate(c["compressor.shaft_work"]),
@@ -190,6 +193,8 @@ def window_means(c: dict, revolutions: int) -> dict:
              "suction_pressure": at(c["loop.suction_pressure"])[1:],
              "discharge_pressure": at(c["loop.discharge_pressure"])[1:],
              "suction_enthalpy": at(c["loop.suction_enthalpy"])[1:],
+             "drawn_enthalpy": np.divide(np.diff(at(c["compressor.drawn_enthalpy"])), drawn,
+                                         out=np.full(span.size, np.nan), where=drawn > 0.0),
              "discharge_enthalpy": np.divide(np.diff(at(c["compressor.delivered_enthalpy"])), delivered,
                                              out=np.full(span.size, np.nan), where=delivered > 0.0)}
     means["cop"] = np.divide(means["capacity"], means["electrical_power"], out=np.full(span.size, np.nan),
@@ -231,12 +236,30 @@ def summary_of(c: dict, means: dict, args, wall: float) -> dict:
         "time to steady state [s]": settled if reached else None, "steady state reached": reached,
         "last-10 % drift of p_s, p_d, mass flow, capacity (relative)": drift,
         "last window": {"speed [rpm]": last["speed"], "suction pressure [Pa]": last["suction_pressure"],
-                        "discharge pressure [Pa]": last["discharge_pressure"], "mass flow [kg/s]": last["mass_flow"],
+                        "discharge pressure [Pa]": last["discharge_pressure"],
+                        "suction enthalpy [J/kg]": last["suction_enthalpy"],
+                        "drawn energy / drawn mass [J/kg]": last["drawn_enthalpy"],
+                        "mass flow [kg/s]": last["mass_flow"],
                         "capacity [W]": last["capacity"], "electrical power [W]": last["electrical_power"],
                         "shaft power [W]": last["shaft_power"], "COP": last["cop"]},
         "charge balance: max |loop + chambers - start| / start": float(np.max(charge_error)),
         "refrigerant in the chambers at the end [kg]": float(chambers[-1]),
     }
+
+
+def cross_check(means: dict, displacement: float) -> dict:
+    """The last window against the independent steady cycle of examples/steady_cycle.py (README "Refrigeration
+    system", docs/model.md §16.7): the cycle's capacity and COP, the system's, and their relative differences."""
+    last = {name: float(values[-1]) for name, values in means.items()}
+    cycle = independent_cycle(FLUID, last["suction_pressure"], last["suction_enthalpy"], last["discharge_pressure"],
+                              last["mass_flow"], last["speed"] * harness.RPM / (2.0 * math.pi), last["shaft_power"],
+                              last["electrical_power"], displacement, last["drawn_enthalpy"])
+    return {**cycle, "swept volume [m3]": displacement,
+            "system capacity [W] (evaporator + suction line)": last["capacity"], "system COP": last["cop"],
+            "capacity: system / cycle - 1": last["capacity"] / cycle["capacity [W]"] - 1.0,
+            "COP: system / cycle - 1": last["cop"] / cycle["COP"] - 1.0,
+            "capacity: system / textbook cycle - 1":
+                last["capacity"] / cycle["textbook capacity m_dot (h_s - h_valve,in) [W]"] - 1.0}
 
 
 # plots ----------------------------------------------------------------------------------------------------------
@@ -369,6 +392,9 @@ def main(argv=None) -> int:
     summary["cycle (p [Pa], h [J/kg]), last window"] = {name: [float(p), float(h)] for name, (p, h) in points.items()}
     state = "" if summary["steady state reached"] else ", not steady"
     plot_cycle(points, out / "cycle_ph.png", f"R134a cycle at t = {args.duration:g} s ({engine}{state})")
+    if summary["steady state reached"]:
+        summary["independent steady cycle (CoolProp), last window"] = cross_check(
+            means, swept_volume(system["simulators"]["compressor"][1]))
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     print(json.dumps(summary, indent=1))
     print(f"wrote {out / 'refrigeration_system.csv'}, refrigeration_system.png, cycle_ph.png, summary.json")

@@ -12,6 +12,7 @@ import pytest
 from pythonfmu.enums import Fmi2Status
 from scipy.optimize import brentq, fsolve
 
+from rotary_vane.examples.steady_cycle import saturated as sat
 from rotary_vane.fmu_src.refrigeration_loop import PARAMETERS, LoopSlave
 from rotary_vane.fmu_src.slave import INITIALIZED
 
@@ -77,9 +78,6 @@ def steady_cycle():
     evaporator balance and the valve passing the prescribed flow at the superheat eps d (T_sec - T_e)."""
     import CoolProp.CoolProp as CP
     p = {name: meta["default"] for name, meta in PARAMETERS.items()}
-
-    def sat(quantity, temperature, quality):
-        return CP.PropsSI(quantity, "T", temperature, "Q", quality, "R134a")
 
     condensing = brentq(lambda t: MASS_FLOW * (DISCHARGE_ENTHALPY - sat("H", t, 0))
                         - p["condenser_ua"] * (t - CONDENSER_SECONDARY), CONDENSER_SECONDARY, 360.0)
@@ -177,11 +175,7 @@ def steady_fixed_orifice_cycle():
     of saturated liquid, from CoolProp: the condenser's outlet then flashes (quality x_o > 0) until the orifice
     passes exactly the compressor's flow, and the evaporator, holding most of the charge, stays wetted (no dry part,
     no superheat): (T_c, T_e, x_o) solve the two energy balances and the orifice law (docs/model.md §16.2-16.3)."""
-    import CoolProp.CoolProp as CP
     p = {name: meta["default"] for name, meta in PARAMETERS.items()}
-
-    def sat(quantity, temperature, quality):
-        return CP.PropsSI(quantity, "T", temperature, "Q", quality, "R134a")
 
     def outlet(condensing, quality):
         return sat("H", condensing, quality), sat("D", condensing, quality)
