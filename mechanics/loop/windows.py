@@ -4,9 +4,9 @@
 The loop lands on every valley (every 2 pi / z of rotor angle), so lobes are exact windows and a revolution is z
 consecutive lobes. The `window` array holds the output row at the start of the current lobe and what accumulates
 over it at each accepted step: trapezoidal time integrals of the `INTEGRATED_COLUMNS` (stator and gap moments; the
-works are states, their differences come from the start and end rows), the largest normal force per region and the largest |tilt|, and the dwell of every
-extended contact mode. At each valley the loop writes
-one lobe record (`RECORD_*` layout: the start row, the end row, the accumulators) and starts the next window;
+works are states, their differences come from the start and end rows), the largest normal force per region and the
+largest |tilt|, and the dwell of every extended contact mode. At each valley the loop writes one lobe record
+(`RECORD_*` layout: the start row, the end row, the accumulators) and starts the next window;
 mechanics.performance turns records into figures. Nothing of this runs in Python per accepted step.
 
 Extended mode key (docs/model.md §4.6): the mask of touching regions (one bit per region, MASKS values) plus, for
