@@ -128,6 +128,20 @@ def run_example(fmus, out, *options) -> dict:
     return json.loads((out / "summary.json").read_text())
 
 
+def test_dc_motor_replaces_the_files_induction_motor_in_both_engines(built_fmus, tmp_path):
+    """--motor dc overrides the file's motor_type in fmpy and in libcosim (an initial value set on the execution):
+    the run reports an armature current, and its peak torque is the torque constant (0.28 N.m/A, the motor FMU's
+    default) times its peak current, T = K i, through the inrush from standstill (L/R = 3.3 ms). 0.1 s: two shaft
+    revolutions, the fewest the summary's windows need."""
+    for engine in ("fmpy", "libcosim"):
+        summary = run_example(built_fmus, tmp_path / engine, "--duration", "0.1", "--window-revolutions", "1",
+                              "--motor", "dc", *(("--libcosim",) if engine == "libcosim" else ()))
+        assert summary["motor"] == "dc", engine
+        current = summary["peak motor current [A] (dc motor; 0: induction)"]
+        assert current > 50.0, (engine, current)
+        assert summary["peak motor torque [N.m]"] == pytest.approx(0.28 * current, rel=1e-9), engine
+
+
 @pytest.mark.slow
 def test_fmpy_and_libcosim_agree_over_the_first_seconds(built_fmus, tmp_path):
     """3 s from standstill (p_d about 2.6 p_s by then): the example's fmpy master and libcosim running the OSP file
