@@ -19,13 +19,13 @@ from typing import NamedTuple
 from .machine import machine_from_parameters
 from ..parameters import CompressorParameters
 
-# measured cost of one accepted step at the defaults, 1500 rpm, 0.1 s (s): per (pressure model is real gas, method);
-# ark548's is DOPRI5's times the ratio of their steps' CPU time in one run of benchmarks/bench_integrators.py (real
-# gas 1.7-2.3, Level 0.5 0.9-1.2 at c = 0 and 0.05 mm: the means). Level 0.5's were raised by the ratio measured when
-# W_ind and W_gap became states (the chamber geometry at every stage, docs/model.md §6.4): DOPRI5 1.25, ABM4 1.1,
-# ark548 1.16 (medians of three alternating runs of the code before and after)
-STEP_SECONDS = {(False, "dopri5"): 5.5e-6, (False, "abm4"): 2.4e-6, (True, "dopri5"): 12.4e-6, (True, "abm4"): 3.9e-6,
-                (False, "ark548"): 5.5e-6, (True, "ark548"): 25e-6}
+# measured cost of one accepted step (s), per (pressure model is real gas, method): the median CPU time per accepted
+# step of the revolutions completed in the 200-point sweep of docs/model.md §11.5 (one worker on the shared 2-core
+# machine; ideal-gas table and polytropic pooled, 14-46 revolutions per method, 2-7 for real gas). The earlier figures,
+# measured at the defaults alone (1500 rpm, 0.1 s), were half of these and left 24 of those 200 points over the
+# budget they had been estimated within
+STEP_SECONDS = {(False, "abm4"): 4.4e-6, (False, "dopri5"): 11e-6, (False, "ark548"): 15e-6,
+                (True, "abm4"): 6.8e-6, (True, "dopri5"): 19e-6, (True, "ark548"): 38e-6}
 DEFAULT_RTOL = 3e-5
 CONTACT_STEPS_PER_PERIOD = 10.0
 
