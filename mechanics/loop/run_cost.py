@@ -11,7 +11,7 @@ Four time scales bound the step size:
   = lambda_f (3 mu/v_0 for Threlfall, mu/(v_1 - v_0) for Ambrosio).
 F is the representative contact load p_d t L, the back-chamber pressure on the vane's bottom face, which the tip and
 slot contacts carry (a persistent contact at 16 rpm carried 0.4-3 kN against the 23 N of (p_d - p_s) h L). Neither
-damper nor friction is stiff on every step, so they enter with the share of steps they limit, fitted to the 143
+damper nor friction is stiff on every step, so they enter with the share of steps they limit, fitted to the 190
 revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE). A simulated duration D takes about
 
     N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f)
@@ -19,8 +19,9 @@ revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE). A 
 accepted steps, at least D/max_step (the bound no run can beat: h <= max_step for every method). At 10 rpm a
 revolution is 6 s of simulated time: 300 000 steps at the default max_step of 20 us, and 6e8 at max_step = 1e-8 s.
 The seconds are N times the measured cost of one step (STEP_SECONDS, one worker on the shared 2-core machine of
-§11.5); they scale with the machine. Over the sweep's revolutions the estimate is within a factor 2.3 of the measured
-time for 80 % of them; the tail it misses (up to 1000 times more steps) is the runs of §11.5's slow list.
+§11.5); they scale with the machine. Over the sweep's revolutions estimated/measured seconds has a median of 1.1 and
+is within 0.1-2.2 for 80 % of them; the tail it misses (up to 1000 times more steps) is stiffness the representative
+load does not capture (docs/model.md §8.3).
 """
 from __future__ import annotations
 
