@@ -119,9 +119,8 @@ def test_a_point_estimated_over_the_budget_is_refused_before_any_work_with_the_e
 
 def test_the_random_draw_keeps_the_expensive_machines():
     """Valid points are not re-drawn for their cost: among 60 drawn, some are estimated beyond a 20 s budget (about a
-    quarter of the draw at this seed, docs/model.md §11.5), and the draw is the same with any budget."""
-    points, refusals = valid_random_points(60)
+    quarter of the draw at this seed, docs/model.md §11.5)."""
+    points, _ = valid_random_points(60)
     costs = [revolution_cost(CompressorParameters(**{k: v for k, v in p.items() if k != "rpm"}), p["rpm"]).seconds
              for p in points]
     assert len(points) == 60 and sum(cost > 20.0 for cost in costs) >= 3, sorted(costs)[-5:]
-    assert "announced over budget" not in refusals
