@@ -1,15 +1,27 @@
 """How long a run will take, said before it starts (docs/model.md §8.3).
 
-The step size is bounded by max_step and, on the stiff contacts, by the error control to about a tenth of the
-contact period T_c (mechanics.loop.machine.contact_period) at the default rtol, scaling as rtol^(1/5) (a 5th-order error
-estimate). So a simulated duration D takes about
+Four time scales bound the step size:
+* max_step;
+* on the stiff contacts, the error control, to about a tenth of the contact period T_c
+  (mechanics.loop.machine.contact_period) at the default rtol, scaling as rtol^(1/5) (a 5th-order error estimate):
+  h_c = T_c/10 (rtol / 3e-5)^(1/5);
+* in a persistent contact, the stability of the explicit stages against the contact damping of §5.2: the force
+  F (1 + 0.75 (1 - c_e^2) v/v_floor) is a damper of rate lambda_d = 0.75 (1 - c_e^2) F / (m3 v_floor) on the vane;
+* in a sticking slot contact, the same against the friction law's slope at zero slip (§5.3), mu_eff'(0) F / m3
+  = lambda_f (3 mu/v_0 for Threlfall, mu/(v_1 - v_0) for Ambrosio).
+F is the representative contact load p_d t L, the back-chamber pressure on the vane's bottom face, which the tip and
+slot contacts carry (a persistent contact at 16 rpm carried 0.4-3 kN against the 23 N of (p_d - p_s) h L). Neither
+damper nor friction is stiff on every step, so they enter with the share of steps they limit, fitted to the 190
+revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE). A simulated duration D takes about
 
-    N = D (1/max_step + 1/h_c),   h_c = T_c/10 (rtol / 3e-5)^(1/5)
+    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f)
 
-accepted steps, at least D/max_step (the bound no run can beat: h <= max_step for both methods). At 10 rpm a
+accepted steps, at least D/max_step (the bound no run can beat: h <= max_step for every method). At 10 rpm a
 revolution is 6 s of simulated time: 300 000 steps at the default max_step of 20 us, and 6e8 at max_step = 1e-8 s.
-The seconds are N times the cost of one step measured at the defaults (STEP_SECONDS, one core of the 2-core
-machine of README "Speed"); they scale with the machine.
+The seconds are N times the measured cost of one step (STEP_SECONDS, one worker on the shared 2-core machine of
+§11.5); they scale with the machine. Over the sweep's revolutions estimated/measured seconds has a median of 1.1 and
+is within 0.1-2.2 for 80 % of them; the tail it misses (up to 1000 times more steps) is stiffness the representative
+load does not capture (docs/model.md §8.3).
 """
 from __future__ import annotations
 
@@ -19,30 +31,55 @@ from typing import NamedTuple
 from .machine import machine_from_parameters
 from ..parameters import CompressorParameters
 
-# measured cost of one accepted step at the defaults, 1500 rpm, 0.1 s (s): per (pressure model is real gas, method);
-# ark548's is DOPRI5's times the ratio of their steps' CPU time in one run of benchmarks/bench_integrators.py (real
-# gas 1.7-2.3, Level 0.5 0.9-1.2 at c = 0 and 0.05 mm: the means). Level 0.5's were raised by the ratio measured when
-# W_ind and W_gap became states (the chamber geometry at every stage, docs/model.md §6.4): DOPRI5 1.25, ABM4 1.1,
-# ark548 1.16 (medians of three alternating runs of the code before and after)
-STEP_SECONDS = {(False, "dopri5"): 5.5e-6, (False, "abm4"): 2.4e-6, (True, "dopri5"): 12.4e-6, (True, "abm4"): 3.9e-6,
-                (False, "ark548"): 5.5e-6, (True, "ark548"): 25e-6}
+# measured cost of one accepted step (s), per (pressure model is real gas, method): the median CPU time per accepted
+# step of the revolutions completed in the 200-point sweep of docs/model.md §11.5 (one worker on the shared 2-core
+# machine; ideal-gas table and polytropic pooled, 14-46 revolutions per method, 2-7 for real gas). The earlier figures,
+# measured at the defaults alone (1500 rpm, 0.1 s), were half of these and left 24 of those 200 points over the
+# budget they had been estimated within
+STEP_SECONDS = {(False, "abm4"): 4.4e-6, (False, "dopri5"): 11e-6, (False, "ark548"): 15e-6,
+                (True, "abm4"): 6.8e-6, (True, "dopri5"): 19e-6, (True, "ark548"): 38e-6}
 DEFAULT_RTOL = 3e-5
 CONTACT_STEPS_PER_PERIOD = 10.0
+# steps per unit of lambda_d and lambda_f (module docstring): the least median |log(measured/estimated steps)| over
+# the sweep's revolutions (0.52 without the two terms, 0.40 with them)
+DAMPING_SHARE = 0.1
+FRICTION_SHARE = 1e-3
 
 
 class RunCost(NamedTuple):
     steps: float              # expected accepted steps
     fewest_steps: float       # duration / max_step: no run takes fewer
     seconds: float            # expected compute time at STEP_SECONDS
+    limit: str = "max_step"   # the parameters behind the largest share of the steps
+
+
+def friction_slope(params: CompressorParameters) -> float:
+    """d mu_eff / d|v_t| at zero slip, or over the ramp (docs/model.md §5.3) [s/m]."""
+    if params.friction_model == "threlfall":
+        return 3.0 * params.friction_coefficient / params.friction_velocity
+    return params.friction_coefficient / (params.friction_velocity_full - params.friction_velocity)
+
+
+def step_rates(params: CompressorParameters) -> dict[str, float]:
+    """Expected accepted steps per simulated second from each bound of the module docstring, by the parameters that
+    set it."""
+    machine = machine_from_parameters(params)
+    contact_step = machine.contact_period / CONTACT_STEPS_PER_PERIOD \
+        * (params.relative_tolerance / DEFAULT_RTOL) ** 0.2
+    load_per_mass = params.discharge_pressure * params.vane_thickness * params.axial_length / machine.vane_mass
+    return {"max_step": 1.0 / params.max_step,
+            "relative_tolerance and the contact stiffness": 1.0 / contact_step,
+            "onset_velocity_floor and restitution": DAMPING_SHARE * 0.75 * (1.0 - params.restitution ** 2)
+            * load_per_mass / params.onset_velocity_floor,
+            "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass}
 
 
 def run_cost(params: CompressorParameters, duration: float) -> RunCost:
     """The expected cost of simulating `duration` seconds (module docstring)."""
-    period = machine_from_parameters(params).contact_period
-    contact_step = period / CONTACT_STEPS_PER_PERIOD * (params.relative_tolerance / DEFAULT_RTOL) ** 0.2
-    steps = duration * (1.0 / params.max_step + 1.0 / contact_step)
+    rates = step_rates(params)
+    steps = duration * float(sum(rates.values()))
     per_step = STEP_SECONDS[(params.pressure_model == "real_gas", params.integrator)]
-    return RunCost(float(steps), duration / params.max_step, float(steps * per_step))
+    return RunCost(float(steps), duration / params.max_step, float(steps * per_step), max(rates, key=rates.get))
 
 
 def revolution_cost(params: CompressorParameters, rpm: float) -> RunCost:
@@ -52,7 +89,7 @@ def revolution_cost(params: CompressorParameters, rpm: float) -> RunCost:
 
 def describe_cost(cost: RunCost, what: str) -> str:
     return (f"{what} takes about {cost.steps:.3g} steps (at least {cost.fewest_steps:.3g} = duration / max_step), "
-            f"about {cost.seconds:.3g} s of compute (docs/model.md §8.3)")
+            f"about {cost.seconds:.3g} s of compute (docs/model.md §8.3); most steps are set by {cost.limit}")
 
 
 def slow_run_notice(params: CompressorParameters, rpm: float, limit_seconds: float = 10.0) -> str | None:
@@ -62,5 +99,4 @@ def slow_run_notice(params: CompressorParameters, rpm: float, limit_seconds: flo
     cost = revolution_cost(params, rpm)
     if cost.seconds <= limit_seconds:
         return None
-    return describe_cost(cost, f"one revolution at {rpm:g} rpm") + ": a larger max_step or relative_tolerance " \
-                                                                      "shortens it"
+    return describe_cost(cost, f"one revolution at {rpm:g} rpm") + ": relaxing them shortens it"

@@ -5,8 +5,9 @@ declared ends, and a slow speed; the full one-at-a-time sweep is slow."""
 import numpy as np
 import pytest
 
-from rotary_vane.examples.parameter_sweep import one_at_a_time, random_point, run_point
+from rotary_vane.examples.parameter_sweep import one_at_a_time, random_point, run_point, valid_random_points
 from rotary_vane.mechanics import CompressorParameters, declarations
+from rotary_vane.mechanics.loop.run_cost import revolution_cost
 from rotary_vane.mechanics.parameters import RELATION_BOUNDS
 
 FAST = {"lobes", "displacement_law", "stiffness_model", "friction_model", "pressure_model", "integrator",
@@ -103,3 +104,23 @@ def test_each_relation_bound_is_where_validation_refuses(name):
                 tried += 1
                 assert refusal(dict(point, **{name: beyond(bound)})) is not None, (name, bound, point)
     assert tried >= 3, name
+
+
+def test_a_point_estimated_over_the_budget_is_refused_before_any_work_with_the_estimate():
+    """max_step = 10 ns at 15 rpm: 4e8 steps, thousands of seconds; refused in no time, and the message gives the
+    seconds and names max_step (docs/model.md §8.3)."""
+    point = dict(rpm=15.0, pressure_model="polytropic", max_step=1e-8, initial_step=1e-8)
+    result = run_point(point, budget=20.0)
+    assert result["outcome"] == "refused" and result["cpu"] == 0.0 and result["steps"] == 0, result
+    assert "s of compute" in result["detail"] and "max_step" in result["detail"] and "budget of 20 s" in \
+        result["detail"], result["detail"]
+    assert float(result["detail"].split("about ")[2].split(" s of compute")[0]) > 1000.0, result["detail"]
+
+
+def test_the_random_draw_keeps_the_expensive_machines():
+    """Valid points are not re-drawn for their cost: among 60 drawn, some are estimated beyond a 20 s budget (about a
+    quarter of the draw at this seed, docs/model.md §11.5)."""
+    points, _ = valid_random_points(60)
+    costs = [revolution_cost(CompressorParameters(**{k: v for k, v in p.items() if k != "rpm"}), p["rpm"]).seconds
+             for p in points]
+    assert len(points) == 60 and sum(cost > 20.0 for cost in costs) >= 3, sorted(costs)[-5:]

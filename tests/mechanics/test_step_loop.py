@@ -109,3 +109,15 @@ def test_abm4_regains_its_step_from_a_collapsed_one(start_step):
     assert len(steps) < 100
     assert np.median(np.diff(steps)[-10:]) > 2e-6
     assert simulation.counters[integrators.MODE_CHANGES] < 20
+
+
+@pytest.mark.parametrize("setting, named", [(dict(onset_velocity_floor=1e-3, restitution=0.1), "onset_velocity_floor"),
+                                            (dict(friction_velocity=1e-5), "friction_velocity"),
+                                            (dict(max_step=1e-8, initial_step=1e-8), "max_step")])
+def test_the_estimate_names_the_bound_behind_most_steps(setting, named):
+    """docs/model.md §8.3: a 1 mm/s onset-velocity floor with little restitution makes the contact damper the stiff
+    part, a 10 um/s friction regularisation the friction slope; each raises the estimate over the defaults' and the
+    message names it."""
+    params = CompressorParameters(pressure_model="polytropic")
+    cost, default = revolution_cost(params.replace(**setting), 100.0), revolution_cost(params, 100.0)
+    assert cost.steps > 3.0 * default.steps and cost.limit.startswith(named), (cost, default)
