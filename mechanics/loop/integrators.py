@@ -41,7 +41,8 @@ from .windows import accumulate, close_window
  JACOBIANS) = range(9)
 COUNTER_SIZE = 9
 # control values kept between advances (CONTROL_STIFFNESS: DOPRI5's estimate of the dominant eigenvalue's modulus
-# along the last attempted step [1/s], 0 when there is none; _dopri5_stiffness)
+# at the last attempted step [1/s], the larger of the stages' (_dopri5_stiffness) and the chamber Jacobian's
+# (_chamber_spectral_radius), 0 when there is none)
 CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR, CONTROL_STIFFNESS = range(5)
 CONTROL_SIZE = 5
 # step-grid replay (docs/model.md §8.2): grid_counts holds the number of step end times to follow, the index of the
@@ -307,7 +308,7 @@ def _chamber_spectral_radius(history, y, m, c):
     """The modulus of the dominant eigenvalue of the chamber-rate Jacobian J in history row H_JACOBIAN [1/s]
     (docs/model.md §8.2, the stability cap): POWER_ITERATIONS normalised products from the tolerance vector s, then
     rho = (|J^2 x| / |x|)^(1/2) in the error norm's scaling (a complex dominant pair gives no limit of |J x| / |x|,
-    but the square's ratio is its modulus squared). 0 when J is not finite."""
+    but the square's ratio is its modulus squared). 0 when J is not finite or J x vanishes."""
     s0 = _tolerance(GAS_BLOCK, y[GAS_BLOCK], m, c)
     s1 = _tolerance(GAS_BLOCK + 1, y[GAS_BLOCK + 1], m, c)
     s2 = _tolerance(GAS_BLOCK + 2, y[GAS_BLOCK + 2], m, c)
