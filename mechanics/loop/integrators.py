@@ -41,7 +41,8 @@ from .windows import accumulate, close_window
  JACOBIANS) = range(9)
 COUNTER_SIZE = 9
 # control values kept between advances (CONTROL_STIFFNESS: DOPRI5's estimate of the dominant eigenvalue's modulus
-# along the last attempted step [1/s], 0 when there is none; _dopri5_stiffness)
+# at the last attempted step [1/s], the larger of the stages' (_dopri5_stiffness) and the chamber Jacobian's
+# (_chamber_spectral_radius), 0 when there is none)
 CONTROL_STEP, CONTROL_HISTORY, CONTROL_SMALL_ERRORS, CONTROL_PREVIOUS_ERROR, CONTROL_STIFFNESS = range(5)
 CONTROL_SIZE = 5
 # step-grid replay (docs/model.md §8.2): grid_counts holds the number of step end times to follow, the index of the
@@ -53,6 +54,7 @@ GRID_START, GRID_STEP, GRID_END, GRID_REDONE = range(4)
 GRID_COLUMNS = 4
 REPLAY_ERROR_LIMIT = 10.0           # a replayed step whose scaled error exceeds this ends the replay
 PI_BETA = 0.04                      # Hairer's DOPRI5 step-size stabilisation
+POWER_ITERATIONS = 12                # of the chamber Jacobian for its dominant eigenvalue (_chamber_spectral_radius)
 STABILITY_LIMIT = 2.5               # DOPRI5's proposed step keeps h rho below this (real-axis boundary 3.31;
 #                                     the margin measured, docs/model.md §8.2: 3.0 left jumps in the step map)
 RK4_GROWTH = 5.0                    # the most an ABM4 start (RK4) step grows h by (_abm4_start_growth)
@@ -292,6 +294,41 @@ def _dopri5_stiffness(rate_squares, state_squares):
 
 
 @kernel
+def _chamber_product(history, x0, x1, x2, x3):
+    """J x for the chamber-rate Jacobian J in history row H_JACOBIAN (row-major, _chamber_jacobian), as 4 values."""
+    row = history[H_JACOBIAN]
+    return (row[0] * x0 + row[1] * x1 + row[2] * x2 + row[3] * x3,
+            row[4] * x0 + row[5] * x1 + row[6] * x2 + row[7] * x3,
+            row[8] * x0 + row[9] * x1 + row[10] * x2 + row[11] * x3,
+            row[12] * x0 + row[13] * x1 + row[14] * x2 + row[15] * x3)
+
+
+@kernel
+def _chamber_spectral_radius(history, y, m, c):
+    """The modulus of the dominant eigenvalue of the chamber-rate Jacobian J in history row H_JACOBIAN [1/s]
+    (docs/model.md §8.2, the stability cap): POWER_ITERATIONS normalised products from the tolerance vector s, then
+    rho = (|J^2 x| / |x|)^(1/2) in the error norm's scaling (a complex dominant pair gives no limit of |J x| / |x|,
+    but the square's ratio is its modulus squared). 0 when J is not finite or J x vanishes."""
+    s0 = _tolerance(GAS_BLOCK, y[GAS_BLOCK], m, c)
+    s1 = _tolerance(GAS_BLOCK + 1, y[GAS_BLOCK + 1], m, c)
+    s2 = _tolerance(GAS_BLOCK + 2, y[GAS_BLOCK + 2], m, c)
+    s3 = _tolerance(GAS_BLOCK + 3, y[GAS_BLOCK + 3], m, c)
+    x0, x1, x2, x3 = s0, s1, s2, s3
+    for _ in range(POWER_ITERATIONS):
+        z0, z1, z2, z3 = _chamber_product(history, x0, x1, x2, x3)
+        largest = max(abs(z0 / s0), abs(z1 / s1), abs(z2 / s2), abs(z3 / s3))
+        if not (0.0 < largest < math.inf):
+            return 0.0
+        x0, x1, x2, x3 = z0 / largest, z1 / largest, z2 / largest, z3 / largest
+    z0, z1, z2, z3 = _chamber_product(history, x0, x1, x2, x3)
+    w0, w1, w2, w3 = _chamber_product(history, z0, z1, z2, z3)
+    before = (x0 / s0) ** 2 + (x1 / s1) ** 2 + (x2 / s2) ** 2 + (x3 / s3) ** 2
+    after = (w0 / s0) ** 2 + (w1 / s1) ** 2 + (w2 / s2) ** 2 + (w3 / s3) ** 2
+    rho = math.sqrt(math.sqrt(after / before))
+    return rho if rho < math.inf else 0.0
+
+
+@kernel
 def _stability_capped(h, control):
     """The proposed step kept inside DOPRI5's stability region: h rho <= STABILITY_LIMIT (docs/model.md §8.2). A
     continuous function of the state where rho is, so it adds no discrete decision; it only proposes steps."""
@@ -360,7 +397,14 @@ def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
             rate_squares += ((work[STAGES - 1, i] - work[STAGES - 2, i]) / scale) ** 2
             state_squares += ((work[W_Y_NEW, i] - work[W_STAGE, i]) / scale) ** 2
     # the cap is for the chambers' pressure relaxation: under the pressure tables (no chamber states) there is none
-    control[CONTROL_STIFFNESS] = _dopri5_stiffness(rate_squares, state_squares) if n > GAS_BLOCK else 0.0
+    control[CONTROL_STIFFNESS] = 0.0
+    if n > GAS_BLOCK:
+        # the stages' estimate is a lower bound (it measures J along y_n+1 - Y_6, where the stiff mode is damped);
+        # the chamber Jacobian at the new state gives the chambers' dominant eigenvalue itself
+        rho = _dopri5_stiffness(rate_squares, state_squares)
+        if _chamber_jacobian(t + h, work_rows[W_Y_NEW], ctx, memory, history, work_rows, counters) == 0:
+            rho = max(rho, _chamber_spectral_radius(history, work_rows[W_Y_NEW], m, c))
+        control[CONTROL_STIFFNESS] = rho
     return failure, math.sqrt(squares / n)
 
 
