@@ -124,3 +124,38 @@ def test_table_matches_the_detailed_model_between_its_nodes(tmp_path):
     for name in RATES:
         exact = detailed["mean"][name].sum() * STEP
         assert mapped[name] == pytest.approx(exact, rel=1e-2 if name == "shaft_work" else 2e-3), name
+
+
+# the FMU's periodic-map run on the table (fmu_src.periodic_map_mode) -----------------------------------------
+@pytest.fixture
+def fluid_run(monkeypatch):
+    from rotary_vane.fmu_src import periodic_map_mode
+    table = synthetic_table()
+    monkeypatch.setattr(periodic_map_mode, "fluid_map_table_for", lambda params, rpm: table)
+    boundary = dict(suction_pressure=3e5, discharge_pressure=8e5, suction_enthalpy=4.0e5)
+    run = periodic_map_mode.PeriodicMapRun(CompressorParameters(rotor_inertia=0.0), 1500.0, 1200.0, 0.0, boundary)
+    return run, table, boundary
+
+
+def test_map_run_cumulative_flows_are_the_integral_over_the_angle_turned(fluid_run):
+    """At constant inputs, 300 steps of 1 ms sum to the exact integral over the whole angle (1e-9)."""
+    run, table, boundary = fluid_run
+    for _ in range(300):
+        run.advance(1e-3, 1200.0, True, boundary)
+    whole = table.rate_integrals(0.0, run.angle, 1200.0, 3e5, 8e5, suction_enthalpy=4.0e5)
+    assert run.angle == pytest.approx(300 * 1e-3 * 1200.0 * 2.0 * math.pi / 60.0, rel=1e-12)
+    for name in MASS_RATES.items():
+        for flow in name:
+            assert run.flows[flow] == pytest.approx(whole[flow], rel=1e-9)
+    assert run.work == pytest.approx(whole["shaft_work"], rel=1e-9)
+
+
+@pytest.mark.parametrize("name, value", [("suction_pressure", 6e5), ("discharge_pressure", 1.3e6),
+                                         ("suction_enthalpy", 3.0e5)])
+def test_map_run_refuses_an_input_outside_the_table_and_keeps_its_state(fluid_run, name, value):
+    run, _, boundary = fluid_run
+    run.advance(1e-3, 1200.0, True, boundary)
+    before = run.get_state()
+    with pytest.raises(ValueError, match=rf"input '{name}' = {value!r}"):
+        run.advance(1e-3, 1200.0, True, {**boundary, name: value})
+    assert run.get_state() == before
