@@ -89,14 +89,13 @@ class FluidMapSettings:
 
 
 def system_grid(params: CompressorParameters, operating_rpm: float = 1500.0) -> FluidMapSettings:
-    """The default grid (docs/model.md §6.5): 500-1600 rpm (4 speeds; below, the 500 rpm waveform holds), p_s
-    240-500 kPa (5), p_d 450 kPa-1.40 MPa (8), covering the refrigeration system's start-up from 488 kPa on both sides
-    to its steady 272 kPa / 1.16 MPa, and the parameters' own operating point; superheat that of the parameters'
-    suction state."""
-    fluid = params.fluid
-    dew = coolprop().PropsSI("T", "P", params.suction_pressure, "Q", 1.0, fluid)
+    """The default grid (docs/model.md §6.5): 1/3 to 16/15 of `operating_rpm` (4 speeds: 500, 1000, 1400, 1600 rpm at
+    1500; below, the lowest speed's waveform holds), p_s 200-500 kPa (6), p_d 450 kPa-1.40 MPa (8): the
+    refrigeration system's start-up from 488 kPa on both sides to its steady 272 kPa / 1.16 MPa, with margin; the
+    suction superheat is that of the parameters' suction state."""
+    dew = coolprop().PropsSI("T", "P", params.suction_pressure, "Q", 1.0, params.fluid)
     return FluidMapSettings(speeds=tuple(np.array([1.0 / 3.0, 2.0 / 3.0, 14.0 / 15.0, 16.0 / 15.0]) * operating_rpm),
-                            suction_pressures=tuple(np.linspace(240e3, 500e3, 5)),
+                            suction_pressures=tuple(np.linspace(200e3, 500e3, 6)),
                             discharge_pressures=tuple(np.linspace(450e3, 1.4e6, 8)),
                             suction_superheat=float(params.suction_temperature - dew), table_speed_rpm=operating_rpm)
 
