@@ -11,10 +11,12 @@ them with a fixed-step master in fmpy: motor and compressor take the others' out
 and steps (Gauss-Seidel in that direction only), so that what the compressor drew and delivered in a step is in
 the loop's balance at the same communication point. With --libcosim the file goes to libcosim (libcosimpy), Jacobi
 throughout: the loop takes each step's exchange one step later, and the charge balance counts the compressor's
-exchange of the step before (what the loop has taken). Only the
-detailed real-gas compressor follows moving pressures: its Level 0/0.5 pressure tables and the periodic map are
-built for one operating point and refuse a changed pressure input (README "Suction and discharge conditions as
-inputs"), so the system has no pressure-model option.
+exchange of the step before (what the loop has taken). The
+compressor is the real-gas model (its Level 0/0.5 pressure tables are built for one operating point and refuse a
+changed pressure input, README "Suction and discharge conditions as inputs"), detailed by default or, with
+--fidelity periodic_map (fmpy only), its periodic map over speed x p_s x p_d (docs/model.md §12.4), which follows
+the loop's pressures at a fraction of the cost (its table is built at initialization unless the FMU ships it:
+`python -m rotary_vane.fmu_src.build --map` with the system's compressor parameters, README "Periodic map").
 
 Figures (means over windows of --window-revolutions whole shaft revolutions, from the cumulative outputs
 interpolated in the shaft angle, so nothing of the vane-passing ripple aliases): mass flow (delivered mass /
@@ -34,7 +36,8 @@ Writes under --out: refrigeration_system.csv (every communication point, or ever
 refrigeration_system.png (speed, torques, pressures, mass flow, capacity and COP over time), cycle_ph.png,
 summary.json.
 
-Usage:  python examples/refrigeration_system.py [--duration 5] [--step 1e-3] [--libcosim] [--out DIR]
+Usage:  python examples/refrigeration_system.py [--duration 5] [--step 1e-3] [--fidelity periodic_map] [--libcosim]
+        [--out DIR]
 """
 from __future__ import annotations
 
@@ -228,7 +231,7 @@ def summary_of(c: dict, means: dict, args, wall: float) -> dict:
     settled, reached, drift = settling(means, args.settle)
     last = {name: float(values[-1]) for name, values in means.items()}
     return {
-        "engine": "libcosim" if args.libcosim else "fmpy", "duration [s]": args.duration,
+        "engine": "libcosim" if args.libcosim else "fmpy", "fidelity": args.fidelity, "duration [s]": args.duration,
         "communication step [s]": args.step, "wall time [s]": wall,
         "window [revolutions]": args.window_revolutions,
         "peak motor torque [N.m]": float(np.max(c["motor.motor_torque"])),
@@ -346,6 +349,8 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                         help="relative band of the time to steady state")
     parser.add_argument("--csv-stride", type=int, default=1,
                         help="write every N-th communication point to the CSV (long runs)")
+    parser.add_argument("--fidelity", choices=("detailed", "periodic_map"), default="detailed",
+                        help="the compressor's fidelity (fmpy only; libcosim runs the file as it is)")
     parser.add_argument("--libcosim", action="store_true",
                         help=f"run {SYSTEM_FILE} through libcosim (libcosimpy) instead of fmpy")
     args = parser.parse_args(argv)
@@ -355,6 +360,9 @@ def parse_arguments(argv=None) -> argparse.Namespace:
     if args.libcosim and args.step is not None:
         raise harness.InputError(f"--step = {args.step:g} s with --libcosim: libcosim takes the base step of "
                                  f"{SYSTEM_FILE}; edit the file to change it")
+    if args.libcosim and args.fidelity != "detailed":
+        raise harness.InputError(f"--fidelity {args.fidelity} with --libcosim: libcosim runs {SYSTEM_FILE} as it "
+                                 f"is (detailed)")
     if args.step is None and not args.libcosim:
         args.step = DEFAULT_STEP
     if args.csv_stride < 1:
@@ -367,6 +375,7 @@ def main(argv=None) -> int:
     fmu_dir = harness.ensure_fmus(args.fmu_dir)
     out = harness.output_folder(args.out)
     system = read_system(fmu_dir / SYSTEM_FILE)
+    system["simulators"]["compressor"][1]["fidelity"] = args.fidelity
     log = harness.FmuLog(args.verbose)
     started = time.perf_counter()
     if args.libcosim:
@@ -387,7 +396,7 @@ def main(argv=None) -> int:
         writer.writerow(COLUMNS)
         writer.writerows([repr(float(value)) for value in row] for row in rows[::args.csv_stride])
     plot_time(columns, means, out / "refrigeration_system.png",
-              f"motor + compressor + loop from standstill ({engine}, {args.step * 1e3:g} ms steps)")
+              f"motor + compressor + loop from standstill ({engine}, {args.fidelity}, {args.step * 1e3:g} ms steps)")
     points = cycle_points(means)
     summary["cycle (p [Pa], h [J/kg]), last window"] = {name: [float(p), float(h)] for name, (p, h) in points.items()}
     state = "" if summary["steady state reached"] else ", not steady"

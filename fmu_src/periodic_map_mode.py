@@ -1,6 +1,6 @@
 """The compressor FMU's `periodic_map` fidelity: the detailed model's periodic steady state, tabulated at
 initialization over a speed grid (mechanics.reduced.periodic_map) or, for the real-gas model, over speed x suction
-pressure x discharge pressure (mechanics.reduced.fluid_map, docs/model.md §6.5), interpolated and integrated at run
+pressure x discharge pressure (mechanics.reduced.fluid_map, docs/model.md §12.4), interpolated and integrated at run
 time.
 
 Real gas: the run follows shaft_speed, suction_pressure, discharge_pressure and the suction state (enthalpy, or
@@ -49,7 +49,7 @@ def map_table_for(params, operating_rpm: float):
 
 def fluid_map_table_for(params, operating_rpm: float):
     """The fluid table of `params` on system_grid: shipped in the FMU if built for exactly these parameters and
-    sources, else from the user's cache, else built now (in this process: minutes, docs/model.md §6.5)."""
+    sources, else from the user's cache, else built now (in this process: minutes, docs/model.md §12.4)."""
     settings = system_grid(params, operating_rpm)
     shipped = SHIPPED_TABLES / f"{fluid_cache_key(params, settings)}.npz"
     folder = SHIPPED_TABLES if shipped.exists() else default_cache_dir()

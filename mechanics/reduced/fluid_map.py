@@ -1,5 +1,5 @@
 """Periodic map over the fluid inputs: the detailed model's periodic steady state per rotor angle on a grid of
-speed x suction pressure x discharge pressure, at a fixed suction superheat (docs/model.md §6.5).
+speed x suction pressure x discharge pressure, at a fixed suction superheat (docs/model.md §12.4).
 
 `build_fluid_map(params, settings)` runs `run_speed_point` (mechanics.reduced.periodic_map) at every grid point
 with the boundary held there (suction temperature T_dew(p_s) + superheat), on a dask client or in worker processes,
@@ -13,7 +13,7 @@ total, and a host summing the step increments gets the cumulative value exactly.
 the node angles. Interpolation: multilinear in (speed, p_s, p_d); speeds outside the grid hold the end speed's
 waveform (as the speed-only map), pressures outside the grid's box are refused (ValueError naming the input).
 
-Suction state (docs/model.md §6.5): the table is at the fixed superheat; another suction enthalpy h_s at p_s scales
+Suction state (docs/model.md §12.4): the table is at the fixed superheat; another suction enthalpy h_s at p_s scales
 the mass rates by rho(p_s, h_s) / rho_tab(p_s) and the enthalpy rates to ratio (E_tab + (h_s - h_tab) M_tab): the
 same volume drawn at the actual density, the same enthalpy rise per kg. rho(p_s, h) is tabulated at build time
 (CoolProp) over ENTHALPY_OFFSETS around h_tab(p_s), linear in both; an enthalpy outside that range is refused.
@@ -89,7 +89,7 @@ class FluidMapSettings:
 
 
 def system_grid(params: CompressorParameters, operating_rpm: float = 1500.0) -> FluidMapSettings:
-    """The default grid (docs/model.md §6.5): 1/3 to 16/15 of `operating_rpm` (4 speeds: 500, 1000, 1400, 1600 rpm at
+    """The default grid (docs/model.md §12.4): 1/3 to 16/15 of `operating_rpm` (4 speeds: 500, 1000, 1400, 1600 rpm at
     1500; below, the lowest speed's waveform holds), p_s 200-500 kPa (6), p_d 450 kPa-1.40 MPa (8): the
     refrigeration system's start-up from 488 kPa on both sides to its steady 272 kPa / 1.16 MPa, with margin; the
     suction superheat is that of the parameters' suction state."""

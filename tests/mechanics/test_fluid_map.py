@@ -110,7 +110,7 @@ def test_saved_table_loads_the_same(tmp_path):
 def test_table_matches_the_detailed_model_between_its_nodes(tmp_path):
     """A 2 x 2 x 2 grid around the refrigeration system's steady point; at the cell centre the per-revolution
     integrals against a detailed run there: mass and enthalpies within 0.2 %, shaft work within 1 % (measured
-    -0.52 %, 1e-4, 7e-5, 5e-4 on this grid: docs/model.md §6.5)."""
+    -0.52 %, 1e-4, 7e-5, 5e-4 on this grid: docs/model.md §12.4)."""
     from CoolProp.CoolProp import PropsSI
     params = CompressorParameters(rotor_inertia=0.0)
     settings = FluidMapSettings(speeds=(1400.0, 1600.0), suction_pressures=(250e3, 300e3),
