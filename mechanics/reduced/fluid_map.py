@@ -34,7 +34,8 @@ from ...kernels.compile_cache import source_hash
 from ...thermo.fluid import coolprop
 from ..parameters import CompressorParameters
 from .periodic_map import (CHANNELS, FIGURES, FORMAT_VERSION, PROJECT_DIR, TORQUE, MapSettings, _progress,
-                           default_cache_dir, periodic_antiderivative, periodic_cumulative, run_speed_point)
+                           default_cache_dir, periodic_antiderivative, periodic_cumulative, run_speed_point,
+                           write_table)
 
 # conservative channels: name -> signed cumulative history columns (mechanics.loop.outputs; the FMU's flow outputs)
 RATES = {
@@ -231,19 +232,16 @@ class FluidMapTable:
 
     # disk format --------------------------------------------------------------------------------------------
     def save(self, folder: Path, key: str) -> Path:
-        folder.mkdir(parents=True, exist_ok=True)
+        """Write <key>.npz (arrays) and <key>.json (metadata), as the speed-only tables."""
         arrays = {f"grid/{k}": axis for k, axis in enumerate(self.grid)}
         for group, values in (("channel", self.channels), ("rate", self.rates), ("figure", self.figures),
                               ("suction", self.suction)):
             arrays.update({f"{group}/{n}": v for n, v in values.items()})
-        (folder / f"{key}.json").write_text(json.dumps(dict(self.metadata, key=key), indent=1, sort_keys=True))
-        temporary = folder / f"{key}.partial.npz"
-        np.savez(temporary, **arrays)
-        os.replace(temporary, folder / f"{key}.npz")
-        return folder / f"{key}.npz"
+        return write_table(folder, key, arrays, self.metadata)
 
     @classmethod
     def load(cls, path: Path) -> "FluidMapTable":
+        """Read a table written by `save` (no pickle)."""
         groups = {"grid": {}, "channel": {}, "rate": {}, "figure": {}, "suction": {}}
         with np.load(path, allow_pickle=False) as data:
             for name in data.files:

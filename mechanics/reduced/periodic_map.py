@@ -284,17 +284,12 @@ class MapTable:
     # disk format -------------------------------------------------------------------------------------------
     def save(self, folder: Path, key: str) -> Path:
         """Write <key>.npz (arrays) and <key>.json (metadata); the npz is written last, atomically."""
-        folder.mkdir(parents=True, exist_ok=True)
         arrays = {"speeds": self.speeds}
         arrays.update({f"channel/{n}": v for n, v in self.channels.items()})
         arrays.update({f"figure/{n}": v for n, v in self.figures.items()})
         arrays.update({f"scatter/{n}": v for n, v in self.scatter.items()})
         arrays.update({f"figure_scatter/{n}": v for n, v in self.figure_scatter.items()})
-        (folder / f"{key}.json").write_text(json.dumps(dict(self.metadata, key=key), indent=1, sort_keys=True))
-        temporary = folder / f"{key}.partial.npz"
-        np.savez(temporary, **arrays)
-        os.replace(temporary, folder / f"{key}.npz")
-        return folder / f"{key}.npz"
+        return write_table(folder, key, arrays, self.metadata)
 
     @classmethod
     def load(cls, path: Path) -> "MapTable":
@@ -309,6 +304,17 @@ class MapTable:
         metadata = json.loads(Path(path).with_suffix(".json").read_text())
         return cls(speeds, groups["channel"], groups["figure"], groups["scatter"], groups["figure_scatter"],
                    metadata)
+
+
+def write_table(folder: Path, key: str, arrays: dict, metadata: dict) -> Path:
+    """Write <key>.json (metadata) and <key>.npz (arrays), the npz last and atomically: a table whose npz exists
+    is complete."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{key}.json").write_text(json.dumps(dict(metadata, key=key), indent=1, sort_keys=True))
+    temporary = folder / f"{key}.partial.npz"
+    np.savez(temporary, **arrays)
+    os.replace(temporary, folder / f"{key}.npz")
+    return folder / f"{key}.npz"
 
 
 # cache -------------------------------------------------------------------------------------------------------
