@@ -284,7 +284,9 @@ class CompressorSlave(GuardedSlave):
         results["shaft_work"] = run.work
         results["shaft_angle"] = run.angle - self.initial_rotor_angle
         if run.follows_fluid:
-            results.update(step_means(run.flows, flows_before, step_size, run.delivered_enthalpy_per_mass()))
+            empty = (run.delivered_enthalpy_per_mass()
+                     if run.flows["delivered_mass"] == flows_before["delivered_mass"] else 0.0)
+            results.update(step_means(run.flows, flows_before, step_size, empty))
 
     # state --------------------------------------------------------------------------------------------------
     @classmethod

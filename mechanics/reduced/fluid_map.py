@@ -20,6 +20,7 @@ same volume drawn at the actual density, the same enthalpy rise per kg. rho(p_s,
 """
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import hashlib
 import json
@@ -34,8 +35,7 @@ from ...kernels.compile_cache import source_hash
 from ...thermo.fluid import coolprop
 from ..parameters import CompressorParameters
 from .periodic_map import (CHANNELS, FIGURES, FORMAT_VERSION, PROJECT_DIR, TORQUE, MapSettings, _progress,
-                           default_cache_dir, periodic_antiderivative, periodic_cumulative, run_speed_point,
-                           write_table)
+                           default_cache_dir, periodic_cumulative, run_speed_point, write_table)
 
 # conservative channels: name -> signed cumulative history columns (mechanics.loop.outputs; the FMU's flow outputs)
 RATES = {
@@ -123,6 +123,7 @@ class FluidMapTable:
     def __init__(self, grid: tuple, channels: dict, rates: dict, figures: dict, suction: dict,
                  metadata: dict | None = None):
         self.grid = tuple(np.asarray(axis, dtype=float) for axis in grid)
+        self._grid_lists = tuple(axis.tolist() for axis in self.grid)             # bisect on floats: fast
         self.channels = {n: np.asarray(v, dtype=float) for n, v in channels.items()}
         self.rates = {n: np.asarray(v, dtype=float) for n, v in rates.items()}
         self.figures = {n: np.asarray(v, dtype=float) for n, v in figures.items()}
@@ -138,7 +139,11 @@ class FluidMapTable:
         self._names = list(self.channels)
         self._stack = np.stack([self.channels[n] for n in self._names])       # (channel, s, p, d, angle)
         self._offsets = np.array([0.5 * self.step if n == TORQUE else 0.0 for n in self._names])
-        self._cumulative = {n: periodic_cumulative(v, self.step) for n, v in self.rates.items()}
+        self._rate_names = list(self.rates)
+        self._rates = np.stack([self.rates[n] for n in self._rate_names])           # (rate, s, p, d, angle)
+        self._cumulative = periodic_cumulative(self._rates, self.step)             # (rate, s, p, d, angle + 1)
+        self._figure_names = list(self.figures)
+        self._figures = np.stack([self.figures[n] for n in self._figure_names])    # (figure, s, p, d)
 
     # the box and the weights -------------------------------------------------------------------------------
     def box_error(self, suction_pressure: float, discharge_pressure: float) -> str | None:
@@ -151,31 +156,33 @@ class FluidMapTable:
         return None
 
     @staticmethod
-    def _axis_weights(axis: np.ndarray, value: float):
-        """((i, 1 - w), (j, w)) of linear interpolation, the ends held."""
+    def _axis_weights(axis: list, value: float):
+        """((i, 1 - w), (j, w)) of linear interpolation on the increasing list `axis`, the ends held."""
         if value <= axis[0]:
             return ((0, 1.0),)
         if value >= axis[-1]:
-            return ((axis.size - 1, 1.0),)
-        j = int(np.searchsorted(axis, value, side="right"))
+            return ((len(axis) - 1, 1.0),)
+        j = bisect.bisect_right(axis, value)
         w = (value - axis[j - 1]) / (axis[j] - axis[j - 1])
         return ((j - 1, 1.0 - w), (j, w))
 
     def corners(self, speed_rpm: float, suction_pressure: float, discharge_pressure: float):
-        """[((i, j, l), weight)] of multilinear interpolation; ValueError outside the pressure box."""
+        """(i, j, l, weights): index arrays of the multilinear interpolation's corners and their weights;
+        ValueError outside the pressure box."""
         error = self.box_error(suction_pressure, discharge_pressure)
         if error is not None:
             raise ValueError(error)
-        return [((i, j, l), wi * wj * wl)
-                for i, wi in self._axis_weights(self.grid[0], speed_rpm)
-                for j, wj in self._axis_weights(self.grid[1], suction_pressure)
-                for l, wl in self._axis_weights(self.grid[2], discharge_pressure) if wi * wj * wl != 0.0]
+        speeds, suctions, discharges = (self._axis_weights(axis, value) for axis, value in
+                                        zip(self._grid_lists, (speed_rpm, suction_pressure, discharge_pressure)))
+        corners = [(i, j, l, wi * wj * wl) for i, wi in speeds for j, wj in suctions for l, wl in discharges]
+        i, j, l, w = (np.array(column) for column in zip(*corners))
+        return i, j, l, w
 
     # suction state ------------------------------------------------------------------------------------------
     def suction_correction(self, suction_pressure: float, suction_enthalpy: float) -> tuple[float, float]:
         """(density ratio rho(p_s, h_s) / rho_tab(p_s), h_s - h_tab(p_s)) (module docstring); ValueError if h_s is
         outside the tabulated range."""
-        weights = self._axis_weights(self.grid[1], suction_pressure)
+        weights = self._axis_weights(self._grid_lists[1], suction_pressure)
         h_tab = sum(w * self.suction["enthalpy"][j] for j, w in weights)
         rho_tab = sum(w * self.suction["density"][j] for j, w in weights)
         offset = suction_enthalpy - h_tab
@@ -189,7 +196,7 @@ class FluidMapTable:
     def suction_enthalpy_at(self, suction_pressure: float, suction_temperature: float) -> float:
         """h(p_s, T_s) of a superheated suction gas, from the tabulated states (linear in T along each node's
         enthalpy offsets: the gas side of the grid)."""
-        weights = self._axis_weights(self.grid[1], suction_pressure)
+        weights = self._axis_weights(self._grid_lists[1], suction_pressure)
         t_tab = sum(w * self.suction["temperature"][j] for j, w in weights)
         h_tab = sum(w * self.suction["enthalpy"][j] for j, w in weights)
         cp = sum(w * self.suction["gas_heat_capacity"][j] for j, w in weights)
@@ -198,31 +205,38 @@ class FluidMapTable:
     # evaluation ---------------------------------------------------------------------------------------------
     def values(self, angle: float, speed_rpm: float, suction_pressure: float, discharge_pressure: float) -> dict:
         """Every node-sampled channel at the point: periodic linear in angle, multilinear in the rest."""
+        i, j, l, w = self.corners(speed_rpm, suction_pressure, discharge_pressure)
         position = ((angle - self._offsets) / self.step) % self.samples
-        k = position.astype(np.int64)
-        f = position - k
-        k1 = (k + 1) % self.samples
-        rows = np.arange(len(self._names))
-        total = np.zeros(len(self._names))
-        for (i, j, l), w in self.corners(speed_rpm, suction_pressure, discharge_pressure):
-            total += w * ((1.0 - f) * self._stack[rows, i, j, l, k] + f * self._stack[rows, i, j, l, k1])
-        return dict(zip(self._names, total.tolist()))
+        k = position.astype(np.int64)[:, None]
+        f = (position[:, None] - k)
+        rows = np.arange(len(self._names))[:, None]
+        at = (1.0 - f) * self._stack[rows, i, j, l, k] + f * self._stack[rows, i, j, l, (k + 1) % self.samples]
+        return dict(zip(self._names, (at @ w).tolist()))
 
     def figures_at(self, speed_rpm: float, suction_pressure: float, discharge_pressure: float) -> dict:
-        corners = self.corners(speed_rpm, suction_pressure, discharge_pressure)
-        return {n: float(sum(w * v[c] for c, w in corners)) for n, v in self.figures.items()}
+        """Every per-revolution figure at the point, multilinear."""
+        i, j, l, w = self.corners(speed_rpm, suction_pressure, discharge_pressure)
+        return dict(zip(self._figure_names, (self._figures[:, i, j, l] @ w).tolist()))
+
+    def _antiderivatives(self, i, j, l, angle: float) -> np.ndarray:
+        """(rate, corner): int_0^angle of each rate's periodic linear interpolant through its cell means
+        (periodic_map.periodic_antiderivative, vectorised over the rates and corners)."""
+        shifted = angle - 0.5 * self.step
+        turns = math.floor(shifted / (2.0 * math.pi))
+        position = (shifted - turns * 2.0 * math.pi) / self.step
+        k = min(int(position), self.samples - 1)
+        f = position - k
+        a, b = self._rates[:, i, j, l, k], self._rates[:, i, j, l, (k + 1) % self.samples]
+        cumulative = self._cumulative[:, i, j, l]
+        return turns * cumulative[..., -1] + cumulative[..., k] + self.step * (a * f + 0.5 * (b - a) * f * f)
 
     def rate_integrals(self, angle_start: float, angle_end: float, speed_rpm: float, suction_pressure: float,
                        discharge_pressure: float, suction_enthalpy: float | None = None) -> dict:
         """int of every conservative rate over [angle_start, angle_end] at the point, exact for the interpolant;
         with `suction_enthalpy`, the suction-state correction of the module docstring."""
-        corners = self.corners(speed_rpm, suction_pressure, discharge_pressure)
-        result = {}
-        for name, rates in self.rates.items():
-            cumulative = self._cumulative[name]
-            result[name] = sum(w * (periodic_antiderivative(rates[c], cumulative[c], self.step, angle_end)
-                                    - periodic_antiderivative(rates[c], cumulative[c], self.step, angle_start))
-                               for c, w in corners)
+        i, j, l, w = self.corners(speed_rpm, suction_pressure, discharge_pressure)
+        span = (self._antiderivatives(i, j, l, angle_end) - self._antiderivatives(i, j, l, angle_start)) @ w
+        result = dict(zip(self._rate_names, span.tolist()))
         if suction_enthalpy is not None:
             ratio, offset = self.suction_correction(suction_pressure, suction_enthalpy)
             for mass, enthalpy in MASS_RATES.items():
