@@ -194,8 +194,8 @@ class FluidMapTable:
         return float(rho / rho_tab), float(offset)
 
     def suction_enthalpy_at(self, suction_pressure: float, suction_temperature: float) -> float:
-        """h(p_s, T_s) of a superheated suction gas, from the tabulated states (linear in T along each node's
-        enthalpy offsets: the gas side of the grid)."""
+        """h(p_s, T_s) of a superheated suction gas: h_tab + c_p,tab (T_s - T_tab), with the c_p of the tabulated
+        state (a suction temperature input; the gas side only)."""
         weights = self._axis_weights(self._grid_lists[1], suction_pressure)
         t_tab = sum(w * self.suction["temperature"][j] for j, w in weights)
         h_tab = sum(w * self.suction["enthalpy"][j] for j, w in weights)
