@@ -96,11 +96,12 @@ def read_system(path: Path) -> dict:
 
 
 # fmpy: a fixed-step master over the file's connections -----------------------------------------------------------
-def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: harness.FmuLog) -> np.ndarray:
+def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: harness.FmuLog,
+             step_seconds: dict) -> np.ndarray:
     """The system in fmpy from the file's start values: motor and compressor Jacobi on the outputs at t_k (the loop's
     to the compressor included), then the loop with the compressor's exchange of the step (module docstring); the
-    recorded columns after initialization and after every step. A refused step raises CouplingFailure with the
-    FMU's message."""
+    recorded columns after initialization and after every step; `step_seconds` (per FMU name) gets the wall time
+    of its doStep calls. A refused step raises CouplingFailure with the FMU's message."""
     slaves = {name: Slave(fmu_dir / source, name, log) for name, (source, _) in system["simulators"].items()}
     for name, (_, values) in system["simulators"].items():
         slaves[name].start(values)
@@ -108,16 +109,21 @@ def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: har
     rows = [record_fmpy(0.0, slaves)]
     exchange = [(source, target) for source, target in system["connections"] if target[0] == "loop"]
     jacobi = [(source, target) for source, target in system["connections"] if target[0] != "loop"]
+    clock = time.perf_counter
     for k in range(round(duration / step)):
         t = k * step
         outputs = {source: slaves[source[0]].get(source[1])[0] for source, _ in jacobi}
         for source, (target, name) in jacobi:
             slaves[target].set(name, outputs[source])
-        slaves["motor"].step(t, step)
-        slaves["compressor"].step(t, step)
+        for name in ("motor", "compressor"):
+            started = clock()
+            slaves[name].step(t, step)
+            step_seconds[name] += clock() - started
         for (source, output), (target, name) in exchange:       # the exchange of this step (module docstring)
             slaves[target].set(name, slaves[source].get(output)[0])
+        started = clock()
         slaves["loop"].step(t, step)
+        step_seconds["loop"] += clock() - started
         rows.append(record_fmpy((k + 1) * step, slaves))
         progress((k + 1) * step, None)
     for slave in slaves.values():
@@ -378,18 +384,23 @@ def main(argv=None) -> int:
     system["simulators"]["compressor"][1]["fidelity"] = args.fidelity
     log = harness.FmuLog(args.verbose)
     started = time.perf_counter()
+    step_seconds = dict.fromkeys(system["simulators"], 0.0)
     if args.libcosim:
         args.step = system["step"]
         rows = run_libcosim(fmu_dir / SYSTEM_FILE, args.duration)
     else:
         try:
-            rows = run_fmpy(fmu_dir, system, args.duration, args.step, log)
+            rows = run_fmpy(fmu_dir, system, args.duration, args.step, log, step_seconds)
         except CouplingFailure as failure:
             raise harness.HarnessError(str(failure)) from None
     wall = time.perf_counter() - started
     columns = {name: rows[:, i] for i, name in enumerate(COLUMNS)}
     means = window_means(columns, args.window_revolutions)
     summary = summary_of(columns, means, args, wall)
+    if not args.libcosim:
+        steps = round(args.duration / args.step)
+        summary["doStep wall time per step [us]"] = {name: 1e6 * seconds / steps for name, seconds in
+                                                     step_seconds.items()}
     engine = "libcosim" if args.libcosim else "fmpy"
     with open(out / "refrigeration_system.csv", "w", newline="") as stream:
         writer = csv.writer(stream)
