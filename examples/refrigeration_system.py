@@ -11,10 +11,12 @@ them with a fixed-step master in fmpy: motor and compressor take the others' out
 and steps (Gauss-Seidel in that direction only), so that what the compressor drew and delivered in a step is in
 the loop's balance at the same communication point. With --libcosim the file goes to libcosim (libcosimpy), Jacobi
 throughout: the loop takes each step's exchange one step later, and the charge balance counts the compressor's
-exchange of the step before (what the loop has taken). Only the
-detailed real-gas compressor follows moving pressures: its Level 0/0.5 pressure tables and the periodic map are
-built for one operating point and refuse a changed pressure input (README "Suction and discharge conditions as
-inputs"), so the system has no pressure-model option.
+exchange of the step before (what the loop has taken). The
+compressor is the real-gas model (its Level 0/0.5 pressure tables are built for one operating point and refuse a
+changed pressure input, README "Suction and discharge conditions as inputs"), detailed by default or, with
+--fidelity periodic_map, its periodic map over speed x p_s x p_d (docs/model.md §12.4), which follows
+the loop's pressures at a fraction of the cost (its table is built at initialization unless the FMU ships it:
+`python -m rotary_vane.fmu_src.build --map` with the system's compressor parameters, README "Periodic map").
 
 Figures (means over windows of --window-revolutions whole shaft revolutions, from the cumulative outputs
 interpolated in the shaft angle, so nothing of the vane-passing ripple aliases): mass flow (delivered mass /
@@ -35,11 +37,13 @@ refrigeration_system.png (speed, torques, pressures, mass flow, capacity and COP
 summary.json.
 
 --motor dc runs the same system with the motor FMU's DC motor (its armature circuit at its parameters' defaults:
-48 V, 0.3 Ohm, 1 mH, 0.28 N.m/A) instead of the file's induction motor: the motor_type start value is overridden
-in both engines (fmpy: the start values given; libcosim: an initial value set on the execution before it starts),
-and the summary's peak current is the armature current's.
+48 V, 0.3 Ohm, 1 mH, 0.28 N.m/A) instead of the file's induction motor, and --fidelity periodic_map the compressor's
+periodic map over speed x p_s x p_d (README "Rating maps and periodic-map tables"): each overrides a start value in
+both engines (fmpy: the start values given; libcosim: an initial value set on the execution before it starts).
+The summary's peak current is the DC motor's armature current.
 
-Usage:  python examples/refrigeration_system.py [--duration 5] [--step 1e-3] [--libcosim] [--motor dc] [--out DIR]
+Usage:  python examples/refrigeration_system.py [--duration 5] [--step 1e-3] [--fidelity periodic_map] [--motor dc]
+        [--libcosim] [--out DIR]
 """
 from __future__ import annotations
 
@@ -99,11 +103,12 @@ def read_system(path: Path) -> dict:
 
 
 # fmpy: a fixed-step master over the file's connections -----------------------------------------------------------
-def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: harness.FmuLog) -> np.ndarray:
+def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: harness.FmuLog,
+             step_seconds: dict) -> np.ndarray:
     """The system in fmpy from the file's start values: motor and compressor Jacobi on the outputs at t_k (the loop's
     to the compressor included), then the loop with the compressor's exchange of the step (module docstring); the
-    recorded columns after initialization and after every step. A refused step raises CouplingFailure with the
-    FMU's message."""
+    recorded columns after initialization and after every step; `step_seconds` (per FMU name) gets the wall time
+    of its doStep calls. A refused step raises CouplingFailure with the FMU's message."""
     slaves = {name: Slave(fmu_dir / source, name, log) for name, (source, _) in system["simulators"].items()}
     for name, (_, values) in system["simulators"].items():
         slaves[name].start(values)
@@ -111,16 +116,21 @@ def run_fmpy(fmu_dir: Path, system: dict, duration: float, step: float, log: har
     rows = [record_fmpy(0.0, slaves)]
     exchange = [(source, target) for source, target in system["connections"] if target[0] == "loop"]
     jacobi = [(source, target) for source, target in system["connections"] if target[0] != "loop"]
+    clock = time.perf_counter
     for k in range(round(duration / step)):
         t = k * step
         outputs = {source: slaves[source[0]].get(source[1])[0] for source, _ in jacobi}
         for source, (target, name) in jacobi:
             slaves[target].set(name, outputs[source])
-        slaves["motor"].step(t, step)
-        slaves["compressor"].step(t, step)
+        for name in ("motor", "compressor"):
+            started = clock()
+            slaves[name].step(t, step)
+            step_seconds[name] += clock() - started
         for (source, output), (target, name) in exchange:       # the exchange of this step (module docstring)
             slaves[target].set(name, slaves[source].get(output)[0])
+        started = clock()
         slaves["loop"].step(t, step)
+        step_seconds["loop"] += clock() - started
         rows.append(record_fmpy((k + 1) * step, slaves))
         progress((k + 1) * step, None)
     for slave in slaves.values():
@@ -243,7 +253,7 @@ def summary_of(c: dict, means: dict, args, wall: float) -> dict:
     settled, reached, drift = settling(means, args.settle)
     last = {name: float(values[-1]) for name, values in means.items()}
     return {
-        "engine": "libcosim" if args.libcosim else "fmpy", "duration [s]": args.duration,
+        "engine": "libcosim" if args.libcosim else "fmpy", "fidelity": args.fidelity, "duration [s]": args.duration,
         "communication step [s]": args.step, "wall time [s]": wall,
         "window [revolutions]": args.window_revolutions,
         "peak motor torque [N.m]": float(np.max(c["motor.motor_torque"])),
@@ -363,6 +373,8 @@ def parse_arguments(argv=None) -> argparse.Namespace:
                         help="write every N-th communication point to the CSV (long runs)")
     parser.add_argument("--motor", choices=MOTORS, default=None,
                         help="the motor FMU's motor_type for this run (default: the system file's, induction)")
+    parser.add_argument("--fidelity", choices=("detailed", "periodic_map"), default="detailed",
+                        help="the compressor's fidelity")
     parser.add_argument("--libcosim", action="store_true",
                         help=f"run {SYSTEM_FILE} through libcosim (libcosimpy) instead of fmpy")
     args = parser.parse_args(argv)
@@ -384,17 +396,20 @@ def main(argv=None) -> int:
     fmu_dir = harness.ensure_fmus(args.fmu_dir)
     out = harness.output_folder(args.out)
     system = read_system(fmu_dir / SYSTEM_FILE)
-    overrides = {"motor": {"motor_type": args.motor}} if args.motor else {}
+    overrides = {"compressor": {"fidelity": args.fidelity}}
+    if args.motor:
+        overrides["motor"] = {"motor_type": args.motor}
     for component, values in overrides.items():
         system["simulators"][component][1].update(values)
     log = harness.FmuLog(args.verbose)
     started = time.perf_counter()
+    step_seconds = dict.fromkeys(system["simulators"], 0.0)
     if args.libcosim:
         args.step = system["step"]
         rows = run_libcosim(fmu_dir / SYSTEM_FILE, args.duration, overrides)
     else:
         try:
-            rows = run_fmpy(fmu_dir, system, args.duration, args.step, log)
+            rows = run_fmpy(fmu_dir, system, args.duration, args.step, log, step_seconds)
         except CouplingFailure as failure:
             raise harness.HarnessError(str(failure)) from None
     wall = time.perf_counter() - started
@@ -402,13 +417,18 @@ def main(argv=None) -> int:
     means = window_means(columns, args.window_revolutions)
     summary = summary_of(columns, means, args, wall)
     summary["motor"] = system["simulators"]["motor"][1]["motor_type"]
+    if not args.libcosim:
+        steps = round(args.duration / args.step)
+        summary["doStep wall time per step [us]"] = {name: 1e6 * seconds / steps for name, seconds in
+                                                     step_seconds.items()}
     engine = "libcosim" if args.libcosim else "fmpy"
     with open(out / "refrigeration_system.csv", "w", newline="") as stream:
         writer = csv.writer(stream)
         writer.writerow(COLUMNS)
         writer.writerows([repr(float(value)) for value in row] for row in rows[::args.csv_stride])
     plot_time(columns, means, out / "refrigeration_system.png",
-              f"{summary['motor']} motor + compressor + loop from standstill ({engine}, {args.step * 1e3:g} ms steps)")
+              f"{summary['motor']} motor + compressor + loop from standstill ({engine}, {args.fidelity}, "
+              f"{args.step * 1e3:g} ms steps)")
     points = cycle_points(means)
     summary["cycle (p [Pa], h [J/kg]), last window"] = {name: [float(p), float(h)] for name, (p, h) in points.items()}
     state = "" if summary["steady state reached"] else ", not steady"

@@ -126,13 +126,17 @@ def flow_results(simulation, before: dict | None, step_size: float) -> dict:
                                                    - y[GAS_BLOCK + ENERGY_BACK_CHAMBER]))
     if before is None:
         return cumulative
+    if simulation.params.pressure_model != "real_gas":
+        return {**step_means(cumulative, before, step_size, 0.0), "discharge_enthalpy_mean": 0.0}
+    return step_means(cumulative, before, step_size, simulation.boundary.back.enthalpy)
+
+
+def step_means(cumulative: dict, before: dict, step_size: float, empty_enthalpy: float) -> dict:
+    """The cumulative flows and their step means (FLOW_RESULTS) from the cumulative flows at the step's end and
+    start; `empty_enthalpy`: the discharge_enthalpy_mean of a step that delivered nothing (module docstring)."""
     delivered = cumulative["delivered_mass"] - before["delivered_mass"]
     enthalpy = cumulative["delivered_enthalpy"] - before["delivered_enthalpy"]
     means = {name: (cumulative[source] - before[source]) / step_size
              for name, (_, _, source) in FLOW_RESULTS.items() if source is not None}
-    if simulation.params.pressure_model != "real_gas":
-        means["discharge_enthalpy_mean"] = 0.0
-    else:
-        means["discharge_enthalpy_mean"] = (enthalpy / delivered if delivered != 0.0 else
-                                            simulation.boundary.back.enthalpy)
+    means["discharge_enthalpy_mean"] = enthalpy / delivered if delivered != 0.0 else empty_enthalpy
     return {**cumulative, **means}

@@ -153,10 +153,8 @@ def ship_map(private: str, map_file: Path) -> None:
     values = json.loads(Path(map_file).read_text())
     operating = float(values.pop("pressure_table_speed", 1500.0))
     parameters = __import__(f"{private}.mechanics.parameters", fromlist=["CompressorParameters"])
-    tables = __import__(f"{private}.mechanics.reduced.periodic_map", fromlist=["build_map"])
-    mode = __import__(f"{private}.fmu_src.periodic_map_mode", fromlist=["SHIPPED_TABLES"])
-    tables.build_map(parameters.CompressorParameters(**values), operating_rpm=operating,
-                     settings=tables.MapSettings(table_speed_rpm=operating), cache_dir=mode.SHIPPED_TABLES)
+    mode = __import__(f"{private}.fmu_src.periodic_map_mode", fromlist=["ship_table"])
+    mode.ship_table(parameters.CompressorParameters(**values), operating)
 
 
 def ship_kernels(staging: Path, private: str, model: str) -> str:

@@ -28,7 +28,7 @@ from .periodic_map_mode import FIDELITIES, PeriodicMapRun, check_fidelity
 from . import state_schema as schema
 from .slave import GuardedSlave, StepFailed
 from .boundary_inputs import (BOUNDARY_INPUTS, FLOW_RESULTS, SUCTION_STATE_INPUTS, boundary_input_variable,
-                              build_point, check_suction_state_input, flow_results)
+                              build_point, check_suction_state_input, flow_results, step_means)
 from .variables import RealVariable, declared_parameter, integer_output, output, parameter
 
 OUTPUTS = fmu_outputs()
@@ -121,7 +121,9 @@ class CompressorSlave(GuardedSlave):
         self.register_variable(declared_parameter("fidelity", dict(
             choices=FIDELITIES, description="detailed: every vane impact resolved; periodic_map: the detailed "
                                              "model's periodic steady state tabulated over 10-120 % of "
-                                             "pressure_table_speed at initialization, interpolated at run time")))
+                                             "pressure_table_speed at initialization (real_gas: over speed x "
+                                             "suction pressure x discharge pressure, following those inputs), "
+                                             "interpolated at run time")))
         owner = self.owner
         for declared in OUTPUTS:
             getter = (_figure_getter(owner, declared) if declared.per == REVOLUTION
@@ -211,7 +213,8 @@ class CompressorSlave(GuardedSlave):
         self.warned_law_excess = False
         self.built_with = {**self._parameter_values(), **{name: getattr(params, name) for name in OPERATING_POINT}}
         if self.fidelity == "periodic_map":
-            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, speed_rpm, self.initial_rotor_angle)
+            self.map_run = PeriodicMapRun(params, self.pressure_table_speed, speed_rpm, self.initial_rotor_angle,
+                                          self._boundary())
             return
         self.simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=self.initial_rotor_angle,
                                      keep_history=False, table_speed_rpm=self.pressure_table_speed)
@@ -262,18 +265,28 @@ class CompressorSlave(GuardedSlave):
     def _advance_map(self, end_time, step_size):
         """One step of the periodic_map fidelity (fmu_src.periodic_map_mode), to the model time `end_time`."""
         run = self.map_run
-        for name, value in self._boundary().items():        # the map is tabulated at one operating point
-            if value != self.built_with.get(name):
-                raise StepFailed(f"input '{name}' = {value!r} is out of range: allowed "
-                                 f"{self.built_with.get(name)!r}, the value the periodic map was tabulated at "
-                                 f"(fidelity 'periodic_map' is built for one operating point)")
-        work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed)
+        if not run.follows_fluid:
+            for name, value in self._boundary().items():        # a pressure-table map is for one operating point
+                if value != self.built_with.get(name):
+                    raise StepFailed(f"input '{name}' = {value!r} is out of range: allowed "
+                                     f"{self.built_with.get(name)!r}, the value the periodic map was tabulated at "
+                                     f"(fidelity 'periodic_map' of pressure_model {self.pressure_model!r} is built "
+                                     f"for one operating point; the real_gas one follows the inputs)")
+        flows_before = dict(run.flows)
+        try:
+            work, angle = run.advance(step_size, self.shaft_speed, self.interpolate_speed, self._boundary())
+        except ValueError as error:          # outside the table's box: refused before any change
+            raise StepFailed(str(error)) from None
         run.time = end_time                    # the exact sum of the step sizes (the clock's), not a float sum
         self.map_values = run.outputs()
         results = self.step_results
         results["shaft_torque_mean"] = work / angle if angle > 0.0 else self.map_values["shaft_torque"]
         results["shaft_work"] = run.work
         results["shaft_angle"] = run.angle - self.initial_rotor_angle
+        if run.follows_fluid:
+            empty = (run.delivered_enthalpy_per_mass()
+                     if run.flows["delivered_mass"] == flows_before["delivered_mass"] else 0.0)
+            results.update(step_means(run.flows, flows_before, step_size, empty))
 
     # state --------------------------------------------------------------------------------------------------
     @classmethod

@@ -78,7 +78,9 @@ SIMULATION = schema.Record({
     # the boundary nodes held (mechanics.gas.boundary): T, rho, p, h of the suction node, then of the back node
     "boundary_nodes": _float_array(8),
 })
-MAP_RUN = schema.Record({name: schema.Real() for name in ("time", "angle", "speed_rpm", "work", "acceleration")})
+MAP_RUN = schema.Record({name: schema.Real() for name in (
+    "time", "angle", "speed_rpm", "work", "acceleration", "suction_pressure", "discharge_pressure", "suction_enthalpy",
+    "drawn_mass", "drawn_enthalpy", "delivered_mass", "delivered_enthalpy")})
 
 
 def undefined_columns(pressure_model: str) -> np.ndarray:

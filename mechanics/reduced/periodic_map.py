@@ -113,15 +113,21 @@ def refinement_speeds(table: "MapTable", room: int) -> np.ndarray:
 
 
 # one speed point ---------------------------------------------------------------------------------------------
-def run_speed_point(params: CompressorParameters, speed_rpm: float, settings: MapSettings) -> dict:
+def run_speed_point(params: CompressorParameters, speed_rpm: float, settings: MapSettings,
+                    boundary: dict | None = None, rates: dict | None = None) -> dict:
     """Run the detailed model at constant `speed_rpm` from theta = 0: warm-up revolutions, then sampled ones.
 
-    Returns arrays per channel: mean over the sampled revolutions [samples] and the rev-to-rev RMS scatter
-    sqrt(mean_r mean_k (x_rk - mean_k)^2) (a scalar), the per-revolution figures (mean and scatter), the run time.
+    boundary: the Simulation.set_boundary values to hold (default: the parameters' operating point). rates: more
+    cell-mean channels, name -> ((history column, sign), ...), the per-angle rate of that signed sum of cumulative
+    columns (the torque is the rate of work_in). Returns arrays per channel: mean over the sampled revolutions
+    [samples] and the rev-to-rev RMS scatter sqrt(mean_r mean_k (x_rk - mean_k)^2) (a scalar), the per-revolution
+    figures (mean and scatter), the run time.
     """
     started = time.perf_counter()
     simulation = Simulation(params, constant_speed(speed_rpm), initial_angle=0.0, keep_history=True,
                             table_speed_rpm=settings.table_speed_rpm)
+    if boundary is not None:
+        simulation.set_boundary(**boundary)
     period = 2.0 * math.pi / (speed_rpm * RPM)
     total = settings.warmup_revolutions + settings.averaged_revolutions
     simulation.advance(total * period * (1.0 + 1e-9))
@@ -129,31 +135,51 @@ def run_speed_point(params: CompressorParameters, speed_rpm: float, settings: Ma
     angle = history["rotor_angle"]
     step = 2.0 * math.pi / settings.samples
     start = settings.warmup_revolutions * 2.0 * math.pi
+    cumulative = {TORQUE: history["work_in"]}
+    for name, terms in (rates or {}).items():
+        cumulative[name] = sum(sign * history[column] for column, sign in terms)
     waveforms = {}
-    for name in CHANNELS:
-        values = history[name]
+    for name in (*CHANNELS, *(rates or {})):
         per_revolution = []
         for r in range(settings.averaged_revolutions):
             base = start + r * 2.0 * math.pi
-            if name == TORQUE:              # cell means of the shaft work
+            if name in cumulative:              # cell means of a cumulative quantity
                 edges = base + step * np.arange(settings.samples + 1)
-                work = np.interp(edges, angle, history["work_in"])
-                per_revolution.append(np.diff(work) / step)
+                per_revolution.append(np.diff(np.interp(edges, angle, cumulative[name])) / step)
             else:
-                per_revolution.append(np.interp(base + step * np.arange(settings.samples), angle, values))
-        stack = np.array(per_revolution)
-        waveforms[name] = stack
+                per_revolution.append(np.interp(base + step * np.arange(settings.samples), angle, history[name]))
+        waveforms[name] = np.array(per_revolution)
     summaries = revolutions(simulation)[-settings.averaged_revolutions:]     # the run starts on a boundary
     if len(summaries) != settings.averaged_revolutions:
         raise RuntimeError(f"{len(summaries)} complete revolutions recorded at {speed_rpm} rpm, expected "
                            f"{settings.averaged_revolutions}")
     figures = {name: [getattr(summary, name) for summary in summaries] for name in FIGURES}
-    return dict(speed_rpm=float(speed_rpm),
+    return dict(speed_rpm=float(speed_rpm), boundary=boundary,
                 mean={n: w.mean(axis=0) for n, w in waveforms.items()},
                 scatter={n: float(np.sqrt(np.mean((w - w.mean(axis=0)) ** 2))) for n, w in waveforms.items()},
                 figures={n: float(np.mean(v)) for n, v in figures.items()},
                 figure_scatter={n: float(np.std(v)) for n, v in figures.items()},
                 seconds=time.perf_counter() - started)
+
+
+def periodic_cumulative(rates: np.ndarray, step: float) -> np.ndarray:
+    """Integrals from the first node of the periodic linear interpolant through `rates` (..., samples), at each node
+    and one period on: shape (..., samples + 1)."""
+    trapezoids = 0.5 * step * (rates + np.roll(rates, -1, axis=-1))
+    return np.concatenate([np.zeros((*rates.shape[:-1], 1)), np.cumsum(trapezoids, axis=-1)], axis=-1)
+
+
+def periodic_antiderivative(rates: np.ndarray, cumulative: np.ndarray, step: float, angle: float) -> float:
+    """int_0^angle of the periodic linear interpolant through `rates` at the cell mid-angles (k + 1/2) step (exact,
+    any real angle); `cumulative` = periodic_cumulative(rates, step)."""
+    samples = rates.size
+    shifted = angle - 0.5 * step
+    turns = math.floor(shifted / (2.0 * math.pi))
+    position = (shifted - turns * 2.0 * math.pi) / step
+    k = min(int(position), samples - 1)
+    f = position - k
+    a, b = rates[k], rates[(k + 1) % samples]
+    return turns * cumulative[-1] + cumulative[k] + step * (a * f + 0.5 * (b - a) * f * f)
 
 
 # the table ---------------------------------------------------------------------------------------------------
@@ -188,9 +214,7 @@ class MapTable:
         self._figure_stack = np.stack([self.figures[n] for n in self._figure_names]) if self.figures else None
         torque = self.channels.get(TORQUE)
         if torque is not None:          # cumulative integral of the periodic linear interpolant at its nodes
-            trapezoids = 0.5 * self.step * (torque + np.roll(torque, -1, axis=1))
-            self._torque_cumulative = np.concatenate([np.zeros((self.speeds.size, 1)),
-                                                      np.cumsum(trapezoids, axis=1)], axis=1)
+            self._torque_cumulative = periodic_cumulative(torque, self.step)
 
     # interpolation weights -------------------------------------------------------------------------------
     def _speed_weights(self, speed_rpm: float):
@@ -246,16 +270,7 @@ class MapTable:
 
     def _torque_antiderivative(self, row: int, angle: float) -> float:
         """int_0^angle T_row(theta) dtheta of the periodic linear interpolant (exact, any real angle)."""
-        cumulative = self._torque_cumulative[row]
-        shifted = angle - 0.5 * self.step
-        turns = math.floor(shifted / (2.0 * math.pi))
-        position = (shifted - turns * 2.0 * math.pi) / self.step
-        k = min(int(position), self.samples - 1)
-        f = position - k
-        torque = self.channels[TORQUE][row]
-        a, b = torque[k], torque[(k + 1) % self.samples]
-        partial = self.step * (a * f + 0.5 * (b - a) * f * f)
-        return turns * cumulative[-1] + cumulative[k] + partial
+        return periodic_antiderivative(self.channels[TORQUE][row], self._torque_cumulative[row], self.step, angle)
 
     def torque_integral(self, angle_start: float, angle_end: float, speed_rpm: float) -> float:
         """int_{angle_start}^{angle_end} T(theta, speed) dtheta [J], exact for the interpolated torque."""
@@ -269,17 +284,12 @@ class MapTable:
     # disk format -------------------------------------------------------------------------------------------
     def save(self, folder: Path, key: str) -> Path:
         """Write <key>.npz (arrays) and <key>.json (metadata); the npz is written last, atomically."""
-        folder.mkdir(parents=True, exist_ok=True)
         arrays = {"speeds": self.speeds}
         arrays.update({f"channel/{n}": v for n, v in self.channels.items()})
         arrays.update({f"figure/{n}": v for n, v in self.figures.items()})
         arrays.update({f"scatter/{n}": v for n, v in self.scatter.items()})
         arrays.update({f"figure_scatter/{n}": v for n, v in self.figure_scatter.items()})
-        (folder / f"{key}.json").write_text(json.dumps(dict(self.metadata, key=key), indent=1, sort_keys=True))
-        temporary = folder / f"{key}.partial.npz"
-        np.savez(temporary, **arrays)
-        os.replace(temporary, folder / f"{key}.npz")
-        return folder / f"{key}.npz"
+        return write_table(folder, key, arrays, self.metadata)
 
     @classmethod
     def load(cls, path: Path) -> "MapTable":
@@ -294,6 +304,17 @@ class MapTable:
         metadata = json.loads(Path(path).with_suffix(".json").read_text())
         return cls(speeds, groups["channel"], groups["figure"], groups["scatter"], groups["figure_scatter"],
                    metadata)
+
+
+def write_table(folder: Path, key: str, arrays: dict, metadata: dict) -> Path:
+    """Write <key>.json (metadata) and <key>.npz (arrays), the npz last and atomically: a table whose npz exists
+    is complete."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{key}.json").write_text(json.dumps(dict(metadata, key=key), indent=1, sort_keys=True))
+    temporary = folder / f"{key}.partial.npz"
+    np.savez(temporary, **arrays)
+    os.replace(temporary, folder / f"{key}.npz")
+    return folder / f"{key}.npz"
 
 
 # cache -------------------------------------------------------------------------------------------------------

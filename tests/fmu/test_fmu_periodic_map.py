@@ -95,11 +95,14 @@ host.close()
 @pytest.mark.slow
 def test_build_ships_the_table_and_the_fmu_loads_it_instead_of_building(tmp_path, env):
     """`build --map params.json` puts the table inside the FMU; a host with an empty cache then loads it from
-    the FMU's resources (no build message), and other parameters still build their own table."""
+    the FMU's resources (no build message), and other parameters still build their own table. (Polytropic: the
+    speed-only table, seconds to build; the real-gas table over the pressures is shipped in
+    test_fmu_refrigeration_system.py's map-mode start-up.)"""
     import subprocess
     import sys
     import zipfile
     (tmp_path / "params.json").write_text(json.dumps({"slot_clearance": 2e-5, "stator_clearance": 2e-5,
+                                                      "pressure_model": "polytropic",
                                                       "pressure_table_speed": 1200.0}))
     done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(tmp_path / "fmu"),
                            "--map", str(tmp_path / "params.json")], capture_output=True, text=True, timeout=600,
@@ -113,7 +116,8 @@ import fmu_helpers as H
 for clearance in (2e-5, 3e-5):
     host = H.Host($fmu)
     assert host.initialize(fidelity="periodic_map", pressure_table_speed=1200.0, shaft_speed=1200.0,
-                           slot_clearance=clearance, stator_clearance=clearance) == 0, host.messages()
+                           slot_clearance=clearance, stator_clearance=clearance,
+                           pressure_model="polytropic") == 0, host.messages()
     host.close()
 """).substitute(fmu=repr(str(fmu)))
     run = H.run_host(script, env=env, timeout=600).check()
