@@ -106,8 +106,9 @@ def test_saved_table_loads_the_same(tmp_path):
     assert loaded.values(0.7, *point) == table.values(0.7, *point)
 
 
+@pytest.mark.slow
 def test_table_matches_the_detailed_model_between_its_nodes(tmp_path):
-    """A 2 x 2 x 2 grid around the refrigeration system's steady point (one averaged revolution after two of
+    """(slow: 80 s on 2 cores, nine detailed real-gas points) A 2 x 2 x 2 grid around the refrigeration system's steady point (one averaged revolution after two of
     warm-up: a few seconds); at the cell centre the per-revolution integrals against a detailed run there: mass and
     enthalpies within 0.2 %, shaft work within 1 % (measured with 3 + 2 revolutions: -0.52 %, mass -9e-5, drawn
     enthalpy 7e-5, delivered enthalpy -5e-4, docs/model.md §12.4)."""
