@@ -155,7 +155,7 @@ def leakage_path_open(law, gap_height, width):
     return law != LAW_SEALED and gap_height > 0.0 and width > 0.0
 
 
-@kernel
+@kernel(inline=True)          # compiled into path_flows: thermo.real_gas_nozzle's kernel notes
 def real_gas_leakage_flow(law, discharge_coefficient, gap_height, flow_length, width, flux, factor,
                           temperature_up, density_up, nozzle_table):
     """Mass flow [kg/s] through a gap between two sides whose real-gas nozzle flux G and signed factor are given

@@ -137,6 +137,16 @@ ARRAY_FIELDS = NozzleTable._fields[9:16] + NozzleTable._fields[22:]
 # (`@kernel`): passing the NamedTuple of seven arrays into a call otherwise costs an atomic incref/decref pair
 # per array, which measured 50 ns per signed flow (3 times the evaluation itself). A kernel compiled so may not
 # allocate (no arrays created, no lists); nozzle_table_from_arrays, which builds a NamedTuple of arrays, keeps it.
+#
+# The look-ups on the loop's path (nozzle_flux_between, real_gas_mass_flux, table_viscosity and what locates their
+# cell, and thermo.leakage.real_gas_leakage_flow, which calls table_viscosity) are compiled into their callers
+# (`@kernel(inline=True)`), so the table is passed by value once per right-hand side (into
+# thermo.flow_paths.path_flows), not once per look-up. A call passes it flattened into its fields (seven words and
+# more per array); since the dome's arrays were added (12 arrays, 15 floats) these functions grew past what LLVM
+# inlines by itself, and copying the table cost more than the look-up: measured per call, flux 73 -> 36 ns,
+# viscosity 50 -> 15 ns (54 and 8 ns before the dome); the real-gas right-hand side about 1.65 -> 1.30 us.
+# Inlining only the look-ups and not real_gas_leakage_flow made that slower (2.5 us): it then no longer fit
+# into path_flows and took the table on each of its calls.
 
 @kernel(allocates=True)
 def nozzle_table_from_arrays(header, critical_ratio, choked_flux_factor, shape_factor, throat_superheat, viscosity,
@@ -152,7 +162,7 @@ def nozzle_table_from_arrays(header, critical_ratio, choked_flux_factor, shape_f
                        dome_shape_factor, dome_accurate_cell)
 
 
-@kernel
+@kernel(inline=True)
 def _dome_cell(temperature, density, table):
     """(in dome, status, i, j, t, s): for a two-phase table and T on its saturation line, whether rho is beyond the
     dew line, and then the (T, x) cell of the HEM part and the local coordinates (STATUS_LIQUID below x = 0)."""
@@ -178,7 +188,7 @@ def _dome_cell(temperature, density, table):
     return True, STATUS_OK, i, j, u - i, w - j
 
 
-@kernel
+@kernel(inline=True)
 def _locate(temperature, density, table):
     """(status, i, j, t, s, dome): the cell of an upstream state and the local coordinates in [0, 1]: the
     (T, ln rho) cell of the gas part, or with dome True the (T, x) cell of the HEM part (two-phase table, beyond
@@ -213,7 +223,7 @@ def _locate(temperature, density, table):
     return status, i, j, t, s, dome
 
 
-@kernel
+@kernel(inline=True)
 def _gas_cell(temperature, log_density, table):
     """(status, i, j, t, s) of the (T, ln rho) cell of the gas part (inside the table's rectangle)."""
     u = (temperature - table.temperature_min) * table.inverse_temperature_step
@@ -239,7 +249,7 @@ def _trilinear(values, i, j, k, t, s, r):
                    + s * ((1.0 - r) * values[i + 1, j + 1, k] + r * values[i + 1, j + 1, k + 1])))
 
 
-@kernel
+@kernel(inline=True)
 def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, table):
     """(G [kg/(s m^2)], status): mass flux of the isentropic expansion from the upstream stagnation state
     (T_up [K], rho_up [kg/m^3], p_up [Pa]) to p_down [Pa] (docs/model.md §7.4; module docstring):
@@ -280,7 +290,7 @@ def real_gas_mass_flux(temperature_up, density_up, pressure_up, pressure_down, t
     return flux, status
 
 
-@kernel
+@kernel(inline=True)
 def nozzle_flux_between(temperature_a, density_a, pressure_a, temperature_b, density_b, pressure_b, table):
     """(G [kg/(s m^2)], factor, status): the real-gas isentropic flux of the upstream side towards the other side's
     pressure and the signed factor such that the flow from side a to side b through a nozzle of area A and
@@ -319,7 +329,7 @@ def signed_real_gas_nozzle_flow(discharge_coefficient, area, temperature_a, dens
     return (discharge_coefficient * area * flux * factor if area > 0.0 else 0.0), status
 
 
-@kernel
+@kernel(inline=True)
 def table_viscosity(temperature, density, table):
     """(mu [Pa s], status): dynamic viscosity of the upstream state (bilinear in (T, ln rho); for the Reynolds
     number of the leakage laws, thermo.leakage); inside the dome of a two-phase table the saturated vapour's at

@@ -126,10 +126,12 @@ def chamber_powers(geometry, pressures):
 def chamber_work_rates(geometry, pressures, dydt):
     """dW_ind/dt = P_ind and dW_gap/dt = P_gap (docs/model.md §6.4): the two parts of W_out integrated as states, so
     the ledger's terms are work differences like the others (the steps of the same method; a trapezoidal sum over the
-    accepted steps left the ledger of an impacting vane at 1.1e-4 of the shaft work)."""
+    accepted steps left the ledger of an impacting vane at 1.1e-4 of the shaft work). Returns (P_ind, P_gap), which
+    the output row reports."""
     indicated, gap = chamber_powers(geometry, pressures)
     dydt[WORK_INDICATED] = indicated
     dydt[WORK_GAP] = gap
+    return indicated, gap
 
 
 @kernel
@@ -157,10 +159,10 @@ def equations_of_motion(pose, contacts, gas, m, dydt):
 
 @kernel
 def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure, geometry,
-                   memory, m, out):
+                   powers, memory, m, out):
     """Write the reported quantities of the output row (docs/model.md §3.4, §6.4); the per-region ones were written
     by contact_loads, the real-gas ones are written by the chamber step (NaN here). `pressures`: (p_L, p_T, p_b);
-    `suction_pressure`: p_s of the moment."""
+    `suction_pressure`: p_s of the moment; `powers`: (P_ind, P_gap) of chamber_work_rates."""
     ax, ay, alpha, driving_torque = accelerations
     kinematics = reported_kinematics(pose, ax, ay, alpha, m)
     out[O.time] = t
@@ -189,7 +191,7 @@ def report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, 
     out[O.output_power] = -gas.power
     out[O.friction_power] = contacts.friction_power
     out[O.damping_power] = contacts.damping_power
-    out[O.indicated_power], out[O.gap_power] = chamber_powers(geometry, pressures)
+    out[O.indicated_power], out[O.gap_power] = powers
     out[O.leading_volume] = geometry.volume_leading + m.dead_volume
     out[O.trailing_volume] = geometry.volume_trailing + m.dead_volume
     out[O.back_volume] = geometry.volume_back
@@ -315,10 +317,10 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
         suction_pressure = m.suction_pressure
     gas = combine(basis, pressures[0], pressures[1], pressures[2], tip, pose.omega, m)
     accelerations = equations_of_motion(pose, contacts, gas, m, dydt)
-    chamber_work_rates(geometry, pressures, dydt)
+    powers = chamber_work_rates(geometry, pressures, dydt)
     if report:
         report_outputs(t, y, pose, slots, tip, sides, contacts, gas, accelerations, pressures, suction_pressure,
-                       geometry, memory, m, out)
+                       geometry, powers, memory, m, out)
         if real_gas:
             report_chambers(out, y, inputs, work, flows, leading, trailing, c, ctx.properties)
     return status
