@@ -202,7 +202,8 @@ DETAILED_STEADY = {"suction pressure [Pa]": 271.7e3, "discharge pressure [Pa]": 
 def test_start_up_in_map_mode_reaches_the_detailed_steady_state(tmp_path):
     """The compressor FMU built with its fluid periodic map shipped (`build --map`, the system's parameters), the
     system from standstill in fmpy with --fidelity periodic_map: steady, with the charge kept, and its steady p_s,
-    p_d, mass flow, capacity and COP within 1 % of the detailed model's (issue 21 item 4)."""
+    p_d, mass flow, capacity and COP within 1 % of the detailed model's. Then that FMU alone loads the table it
+    ships, and refuses a discharge pressure outside the table's box (fmi2Discard, the state untouched)."""
     (tmp_path / "params.json").write_text(json.dumps({"rotor_inertia": 0.0, "pressure_table_speed": 1500.0}))
     done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(tmp_path / "fmu"),
                            "--map", str(tmp_path / "params.json")], capture_output=True, text=True, timeout=7200,
@@ -214,3 +215,30 @@ def test_start_up_in_map_mode_reaches_the_detailed_steady_state(tmp_path):
     assert summary["charge balance: max |loop + chambers - start| / start"] < 1e-9
     for name, value in DETAILED_STEADY.items():
         assert summary["last window"][name] == pytest.approx(value, rel=1e-2), name
+    # the same FMU alone (README contract row C27): the table is the one it ships, and a discharge pressure outside
+    # its box is refused with fmi2Discard naming the input, the state untouched; back inside, the step runs
+    run = H.run_host(BOX_CHECK.format(fmu=str(tmp_path / "fmu" / "RotaryVaneCompressor.fmu"))).check()
+    loaded = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] loaded")]
+    assert len(loaded) == 1 and "/resources/" in loaded[0] and "/periodic_maps/" in loaded[0], run.stderr[-2000:]
+    result = run.result
+    assert result["statuses"] == [H.DISCARD, H.OK], result
+    assert "input 'discharge_pressure' = 2000000.0 Pa is outside the periodic map's box" in result["message"]
+    assert result["after"] == result["before"], result
+
+
+BOX_CHECK = """
+import fmu_helpers as H
+host = H.Host({fmu!r})
+assert host.initialize(fidelity="periodic_map", rotor_inertia=0.0, shaft_speed=1500.0) == H.OK, host.messages()
+host.run(0.0, 1e-3, 20)
+before = host.outputs()
+host.set(discharge_pressure=2.0e6)
+refused = host.step(0.02, 1e-3)
+after = host.outputs()
+message = [m for _, _, m in host.messages()][-1]
+host.set(discharge_pressure=1317900.0)
+H.emit(dict(statuses=[refused, host.step(0.02, 1e-3)], message=message,
+            before=[before[n] for n in ("shaft_work", "delivered_mass", "shaft_angle")],
+            after=[after[n] for n in ("shaft_work", "delivered_mass", "shaft_angle")]))
+host.close()
+"""
