@@ -26,7 +26,6 @@ import hashlib
 import json
 import math
 import os
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +34,7 @@ from ...kernels.compile_cache import source_hash
 from ...thermo.fluid import coolprop
 from ..parameters import CompressorParameters
 from .periodic_map import (CHANNELS, FIGURES, FORMAT_VERSION, PROJECT_DIR, TORQUE, MapSettings, _progress,
-                           default_cache_dir, periodic_cumulative, run_speed_point, write_table)
+                           default_cache_dir, fan_out, periodic_cumulative, run_speed_point, write_table)
 
 # conservative channels: name -> signed cumulative history columns (mechanics.loop.outputs; the FMU's flow outputs)
 RATES = {
@@ -287,16 +286,10 @@ def _run_point(params, speed, boundary, settings):
 
 
 def _run_all(params, points, settings, client, workers) -> list[dict]:
-    """_run_point over `points`: on the dask `client`, in `workers` processes, or here (workers = 1)."""
+    """_run_point over `points` (periodic_map.fan_out)."""
     count = len(points)
     arguments = ([params] * count, [p[0] for p in points], [p[1] for p in points], [settings] * count)
-    if client is not None:
-        results = client.gather(client.map(_run_point, *arguments, pure=False))
-    elif workers <= 1:
-        results = list(map(_run_point, *arguments))
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            results = list(pool.map(_run_point, *arguments))
+    results = fan_out(_run_point, arguments, client, workers)
     _progress(f"{count} points in {sum(r['seconds'] for r in results):.0f} s of run time")
     return results
 

@@ -22,6 +22,7 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -335,28 +336,30 @@ def _progress(message: str) -> None:
     print(f"[periodic map] {message}", file=sys.stderr, flush=True)
 
 
+def fan_out(function, arguments: tuple, client=None, workers: int = 1, done=None) -> list:
+    """[function(*row) for each row of `arguments` (one list per parameter of `function`)], in order: on the dask
+    `client`, in `workers` processes, or here (workers <= 1); done(result) as each result arrives."""
+    with ExitStack() as stack:
+        if client is not None:
+            results = (future.result() for future in client.map(function, *arguments, pure=False))
+        elif workers <= 1:
+            results = map(function, *arguments)
+        else:
+            results = stack.enter_context(ProcessPoolExecutor(max_workers=workers)).map(function, *arguments)
+        collected = []
+        for result in results:
+            collected.append(result)
+            if done is not None:
+                done(result)
+        return collected
+
+
 def _run_all(params, speeds, settings, client, workers) -> list[dict]:
-    """run_speed_point over `speeds`: on the dask `client`, in `workers` processes, or here (workers = 1)."""
-    if client is not None:
-        futures = client.map(run_speed_point, [params] * len(speeds), list(speeds), [settings] * len(speeds),
-                             pure=False)
-        results = []
-        for future in futures:
-            results.append(future.result())
-            _progress(f"{results[-1]['speed_rpm']:.0f} rpm done in {results[-1]['seconds']:.1f} s")
-        return results
-    if workers <= 1:
-        results = []
-        for speed in speeds:
-            results.append(run_speed_point(params, float(speed), settings))
-            _progress(f"{speed:.0f} rpm done in {results[-1]['seconds']:.1f} s")
-        return results
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        results = []
-        for result in pool.map(run_speed_point, [params] * len(speeds), list(speeds), [settings] * len(speeds)):
-            results.append(result)
-            _progress(f"{result['speed_rpm']:.0f} rpm done in {result['seconds']:.1f} s")
-        return results
+    """run_speed_point over `speeds` (fan_out)."""
+    speeds = [float(speed) for speed in speeds]
+    count = len(speeds)
+    return fan_out(run_speed_point, ([params] * count, speeds, [settings] * count), client, workers,
+                   lambda result: _progress(f"{result['speed_rpm']:.0f} rpm done in {result['seconds']:.1f} s"))
 
 
 def table_from_points(points: list[dict], metadata: dict) -> MapTable:
