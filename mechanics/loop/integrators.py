@@ -815,6 +815,21 @@ def method_after_acceptance(code, control, step, err, event, restart, rejected_l
 
 
 @kernel
+def _pass_valley(t, y, memory, ctx, window, out, lobe_records, records, work_rows, scratch, counters):
+    """At the end valley: close the lobe's window (mechanics.loop.windows), cross to the next lobe and evaluate the
+    rates there. Returns (lobe records written, False if a chamber state left the property table)."""
+    m = ctx.machine[0]
+    records = close_window(window, out, round(memory[MEM_LOBE_START] * m.lobes / (2.0 * math.pi)) + 1, lobe_records,
+                           records)
+    if not _cross_valley(t, y, memory, ctx, m.pressure_model == REAL_GAS_MODEL):
+        return records, False
+    counters[VALLEY_CROSSINGS] += 1
+    evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
+    counters[EVALUATIONS] += 1
+    return records, True
+
+
+@kernel
 def _cross_valley(t, y, memory, ctx, real_gas):
     """The vane crossed the end valley of its lobe: the next lobe becomes the active one and, under real gas, the
     chambers are switched (thermo.chamber_model.switch_chambers). Returns False if a chamber state left the
@@ -843,6 +858,23 @@ def smallest_step(t, m):
 def _step_rejected(err, failure):
     """A step is rejected when its error is too large or its state invalid."""
     return err > 1.0 or failure != 0
+
+
+RUNNING = -1                     # _after_rejection: the loop goes on (not a status of advance)
+
+
+@kernel
+def _after_rejection(method, control, step, err, failure, finite, t, m, counters):
+    """Count a rejected step and shrink the next one (the method's rule); below the smallest step (smallest_step)
+    the advance stops with the failure's status, or STEP_TOO_SMALL (NOT_FINITE for a non-finite state); else
+    RUNNING."""
+    counters[REJECTED] += 1
+    control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
+    if control[CONTROL_STEP] >= smallest_step(t, m):
+        return RUNNING
+    if failure != 0:
+        return failure
+    return STEP_TOO_SMALL if finite else NOT_FINITE
 
 
 @kernel
@@ -884,6 +916,49 @@ def _record_step(start, step, end, redone, recorded, grid_counts):
 
 
 @kernel
+def _replay_verdict(err, failure, step, control, grid_counts):
+    """The error of a replayed step (docs/model.md §8.2): within REPLAY_ERROR_LIMIT and valid it is accepted
+    (error at most 1); otherwise the replay ends here (GRID_FELL_BACK) and the step control takes over from this
+    step, which is then judged by its own error."""
+    if err <= REPLAY_ERROR_LIMIT and failure == 0:
+        return min(err, 1.0)
+    grid_counts[GRID_FOLLOW] = grid_counts[GRID_NEXT]
+    grid_counts[GRID_FELL_BACK] = 1
+    control[CONTROL_STEP] = step
+    return err
+
+
+@kernel
+def _advanced_time(t, step, t_end, event, replaying, grid, grid_counts, recorded):
+    """The time after an accepted step: t_end exactly at the end event, the recorded step end while a replay
+    follows it (bit for bit), else t + step; a step the control chose is recorded for a later replay."""
+    start = t
+    if event == END_EVENT:
+        t = t_end
+    elif replaying and event == NO_EVENT:
+        t = grid[grid_counts[GRID_NEXT], GRID_END]
+    else:
+        t = t + step
+    if event == NO_EVENT:
+        _record_step(start, step, t, False, recorded, grid_counts)
+    _after_replayed_step(t, grid, grid_counts)
+    return t
+
+
+@kernel
+def _commit_step(y, work_rows, scratch, out, memory, m, landed, counters):
+    """Take the attempted step's state, first-stage rates and output row as the new ones, and update the contact
+    memory with the contacts that landed; returns whether a contact mode changed."""
+    n = y.size
+    copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
+    copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
+    copy_values(scratch, 0, out, 0, out.size)
+    mode_changed = _update_memory(out, memory, m, landed)
+    counters[MODE_CHANGES] += mode_changed
+    return mode_changed
+
+
+@kernel
 def _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows):
     """Accumulate the lobe window (mechanics.loop.windows) and write the output row (row 0 unless keep_rows)."""
     accumulate(window, run_dwell, out)
@@ -912,7 +987,6 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
     Returns (status, t, rows written, lobe records written); NOT_FINITE if t or t_end is not a number."""
     m = ctx.machine[0]
     method = m.integrator
-    real_gas = m.pressure_model == REAL_GAS_MODEL
     n = y.size
     rows = 0
     records = 0
@@ -940,20 +1014,12 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
         if not finite:
             err = math.inf
         if replaying:
-            if err <= REPLAY_ERROR_LIMIT and failure == 0:
-                err = min(err, 1.0)
-            else:
-                grid_counts[GRID_FOLLOW] = grid_counts[GRID_NEXT]      # the replay ends here
-                grid_counts[GRID_FELL_BACK] = 1
-                control[CONTROL_STEP] = step
+            err = _replay_verdict(err, failure, step, control, grid_counts)
         if _step_rejected(err, failure):
-            counters[REJECTED] += 1
             rejected_last = True
-            control[CONTROL_STEP] = method_after_rejection(method, control, step, err, finite)
-            if control[CONTROL_STEP] < smallest_step(t, m):
-                if failure != 0:
-                    return failure, t, rows, records
-                return (STEP_TOO_SMALL if finite else NOT_FINITE), t, rows, records
+            stop = _after_rejection(method, control, step, err, failure, finite, t, m, counters)
+            if stop != RUNNING:
+                return stop, t, rows, records
             continue
         landed = (1 << contact_slot) if event == CONTACT_EVENT else 0
         s, slot, at_end = _contact_changes(scratch, out, memory, step, landed, smallest_step(t, m) / step)
@@ -968,31 +1034,15 @@ def advance(t, t_end, y, memory, control, history, window, run_dwell, ctx, work,
         contact_time = math.inf
         contact_slot = NO_SLOT
         counters[ACCEPTED] += 1
-        start = t
-        if event == END_EVENT:
-            t = t_end
-        elif replaying and event == NO_EVENT:
-            t = grid[grid_counts[GRID_NEXT], GRID_END]
-        else:
-            t = t + step
-        if event == NO_EVENT:
-            _record_step(start, step, t, False, recorded, grid_counts)
-        _after_replayed_step(t, grid, grid_counts)
-        copy_values(y, 0, work_rows[W_Y_NEW], 0, n)
-        copy_values(work_rows[0], 0, work_rows[STAGES - 1], 0, n)
-        copy_values(scratch, 0, out, 0, out.size)
-        mode_changed = _update_memory(out, memory, m, landed)
-        counters[MODE_CHANGES] += mode_changed
+        t = _advanced_time(t, step, t_end, event, replaying, grid, grid_counts, recorded)
+        mode_changed = _commit_step(y, work_rows, scratch, out, memory, m, landed, counters)
         _record_accepted(out, window, run_dwell, rows_out, rows, keep_rows)
         rows += 1
         if event == VALLEY_EVENT:
-            records = close_window(window, out, round(memory[MEM_LOBE_START] * m.lobes / (2.0 * math.pi)) + 1,
-                                   lobe_records, records)
-            if not _cross_valley(t, y, memory, ctx, real_gas):
+            records, crossed = _pass_valley(t, y, memory, ctx, window, out, lobe_records, records, work_rows, scratch,
+                                            counters)
+            if not crossed:
                 return GAS_STATE_INVALID, t, rows, records
-            counters[VALLEY_CROSSINGS] += 1
-            evaluate(t, y, ctx, memory, work_rows[0], scratch, False)
-            counters[EVALUATIONS] += 1
         restart = mode_changed or event == VALLEY_EVENT or event == RAMP_EVENT
         method_after_acceptance(method, control, step, err, event, restart, rejected_last, history, work, n, m,
                                 counters)
