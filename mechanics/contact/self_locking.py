@@ -21,10 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..geometry.displacement import displacement
-from ..geometry.stator import law_arguments
-
-SAMPLES = 2001            # points over one lobe at which the condition is evaluated
+from ..geometry.stator import lobe_profile
 
 
 class LockingMargin(NamedTuple):
@@ -44,10 +41,8 @@ def _locking_index(mu: float, tan_beta: np.ndarray, lever: np.ndarray) -> np.nda
 
 def locking_margin(params) -> LockingMargin:
     """How close the vane comes to locking in its slot over a lobe (module docstring)."""
-    law, stroke, lobes, bottom_dwell, top_dwell, base_radius = law_arguments(params)
-    angles = np.linspace(0.0, 2.0 * math.pi / lobes, SAMPLES)
-    values = np.array([displacement(a, law, stroke, lobes, bottom_dwell, top_dwell)[:2] for a in angles])
-    s, slope = values[:, 0], values[:, 1]
+    s, slope, _ = lobe_profile(params)
+    base_radius = params.base_radius
     returning = slope < 0.0                          # the stator pushes the vane in
     if not returning.any():
         return LockingMargin(0.0, 0.0, 0.0, 0.0, math.inf)
