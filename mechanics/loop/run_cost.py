@@ -51,7 +51,7 @@ DAMPING_SHARE = 0.1
 FRICTION_SHARE = 1e-3
 # share of a thrown vane's impact spent at the friction slope under the impact force (module docstring): the least
 # median |log(measured/estimated steps)| over the completed revolutions of the §11.5 sweep (0.410 without the term,
-# 0.387 with it; on the 16 thrown vanes among them 1.92 and 1.34)
+# 0.387 with it; on the 17 thrown vanes among them 1.92 and 1.34)
 IMPACT_SHARE = 0.1
 
 
