@@ -43,9 +43,7 @@ def locking_margin(params) -> LockingMargin:
     """How close the vane comes to locking in its slot over a lobe (module docstring)."""
     s, slope, _ = lobe_profile(params)
     base_radius = params.base_radius
-    returning = slope < 0.0                          # the stator pushes the vane in
-    if not returning.any():
-        return LockingMargin(0.0, 0.0, 0.0, 0.0, math.inf)
+    returning = slope < 0.0                          # the stator pushes the vane in (every lobe returns: h > 0)
     s, slope = s[returning], slope[returning]
     tan_beta = -slope / (base_radius + s)
     tip_beyond = base_radius + s + params.tip_radius - params.mouth_radius
@@ -53,7 +51,7 @@ def locking_margin(params) -> LockingMargin:
     lever = 1.0 + 2.0 * np.maximum(tip_beyond, 0.0) / engaged
     index = _locking_index(params.friction_coefficient, tan_beta, lever)
     k = int(np.argmax(index))
-    low, high = 0.0, 1.0 / float(tan_beta.max()) if tan_beta.max() > 0.0 else 1e3
+    low, high = 0.0, 1.0 / float(tan_beta.max())     # beyond 1/tan beta the push cannot slide the vane
     for _ in range(60):                              # J grows with mu: bisect for max J = 1
         middle = 0.5 * (low + high)
         low, high = (middle, high) if _locking_index(middle, tan_beta, lever).max() < 1.0 else (low, middle)
