@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from rotary_vane.mechanics import CompressorParameters, Simulation, constant_speed
+from rotary_vane.mechanics import simulation as simulation_module
 from rotary_vane.mechanics.contact.self_locking import locking_margin
+from rotary_vane.mechanics.errors import IntegrationError
 
 STEEP = dict(lobes=6, stroke=0.01)
 
@@ -56,3 +58,29 @@ def test_same_machine_below_the_bound_is_built():
 
 def test_default_vane_is_far_from_locking():
     assert locking_margin(CompressorParameters()).index < 0.1
+
+
+def _first_revolution_without_the_check(monkeypatch, friction_coefficient):
+    """One revolution at 1500 rpm (Level 0) of the steep machine with the construction check bypassed, under a
+    work bound of 10 000 step attempts per ms (50 times what valid runs at this speed need), advanced in 0.4 ms
+    slices; returns the largest
+    slot-contact force [N], or raises IntegrationError."""
+    monkeypatch.setattr(simulation_module, "check_vane_not_self_locking", lambda params: None)
+    params = CompressorParameters(**STEEP, pressure_model="polytropic", friction_coefficient=friction_coefficient)
+    simulation = Simulation(params, constant_speed(1500.0), initial_angle=0.0, keep_history=True)
+    simulation.work_per_ms = 1e4
+    for k in range(1, 101):                     # 0.4 ms slices: the work bound applies to each
+        simulation.advance(0.04 * k / 100)
+    history = simulation.history
+    return max(float(np.max(history[f"normal_force_{k}"])) for k in (1, 2, 3, 4))
+
+
+def test_the_model_itself_jams_above_the_bound_and_runs_below_it(monkeypatch):
+    """The bound (0.304 for this machine) is the model's own: at mu = 0.29 (J = 0.93) a revolution runs with the slot
+    forces under 10 kN; at mu = 0.32 (J = 1.08) the vane wedges, the slot forces pass 100 kN and the steps collapse
+    to the work bound (measured without the bound: 651 kN and 187 000 steps in the first 12 % of the revolution)."""
+    assert locking_margin(CompressorParameters(**STEEP, friction_coefficient=0.29)).index < 1.0 \
+        < locking_margin(CompressorParameters(**STEEP, friction_coefficient=0.32)).index
+    assert _first_revolution_without_the_check(monkeypatch, 0.29) < 1e4
+    with pytest.raises(IntegrationError, match="work bound"):
+        _first_revolution_without_the_check(monkeypatch, 0.32)
