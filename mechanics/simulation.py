@@ -26,6 +26,7 @@ from .geometry.chamber_geometry import sector_table
 from .geometry.displacement import displacement
 from .gas.boundary import (Boundary, boundary_of, hold_boundary, moved_reference, ramp_boundary, ramp_duration,
                            solve_boundary)
+from .contact.self_locking import check_vane_not_self_locking
 from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
 from .geometry.stator import law_arguments
@@ -132,6 +133,7 @@ class Simulation:
                              f"invalid for pressure_model 'ideal_gas_table': allowed an operating speed > 0 rpm "
                              f"(the table depends on it)")
         p = self.params
+        check_vane_not_self_locking(p)             # a vane that jams in its slot cannot run (docs/model.md §5.5)
         notice = slow_run_notice(p, speed.target_rpm)
         if notice:                                 # said up front (docs/model.md §8.3)
             LOG.warning(notice)

@@ -201,6 +201,14 @@ def law_arguments(params):
             params.bottom_dwell, params.top_dwell, params.base_radius)
 
 
+def lobe_profile(params, samples: int = 2001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """s, ds/dtheta and d2s/dtheta2 at `samples` angles over one lobe, both ends included (docs/model.md §2.3)."""
+    law, stroke, lobes, bottom_dwell, top_dwell, _ = law_arguments(params)
+    angles = np.linspace(0.0, 2.0 * math.pi / lobes, samples)
+    values = np.array([displacement(a, law, stroke, lobes, bottom_dwell, top_dwell)[:3] for a in angles])
+    return values[:, 0], values[:, 1], values[:, 2]
+
+
 @kernel(allocates=True)
 def _regularity_on_grid(samples, law, stroke, lobes, bottom_dwell, top_dwell, base_radius, offset):
     lowest = np.inf

@@ -12,9 +12,13 @@ Four time scales bound the step size:
 F is the representative contact load p_d t L, the back-chamber pressure on the vane's bottom face, which the tip and
 slot contacts carry (a persistent contact at 16 rpm carried 0.4-3 kN against the 23 N of (p_d - p_s) h L). Neither
 damper nor friction is stiff on every step, so they enter with the share of steps they limit, fitted to the 190
-revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE). A simulated duration D takes about
+revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE).
+A vane thrown off its profile (mechanics.loop.vane_throw: lift ratio > 1) lands once a lobe with the Hertz impact
+force F_i for a time t_i; under F_i the friction law's slope is lambda_i = mu_eff'(0) F_i / m3, and a share c of
+the impact (IMPACT_SHARE) is spent at it: c t_i lambda_i steps per impact, z n of them per second (n revolutions per
+second). A simulated duration D takes about
 
-    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f)
+    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f + z n c t_i lambda_i)
 
 accepted steps, at least D/max_step (the bound no run can beat: h <= max_step for every method). At 10 rpm a
 revolution is 6 s of simulated time: 300 000 steps at the default max_step of 20 us, and 6e8 at max_step = 1e-8 s.
@@ -29,6 +33,7 @@ import math
 from typing import NamedTuple
 
 from .machine import machine_from_parameters
+from .vane_throw import vane_throw
 from ..parameters import CompressorParameters
 
 # measured cost of one accepted step (s), per (pressure model is real gas, method): the median CPU time per accepted
@@ -44,6 +49,10 @@ CONTACT_STEPS_PER_PERIOD = 10.0
 # the sweep's revolutions (0.52 without the two terms, 0.40 with them)
 DAMPING_SHARE = 0.1
 FRICTION_SHARE = 1e-3
+# share of a thrown vane's impact spent at the friction slope under the impact force (module docstring): the least
+# median |log(measured/estimated steps)| over the completed revolutions of the §11.5 sweep (0.410 without the term,
+# 0.387 with it; on the 17 thrown vanes among them 1.92 and 1.34)
+IMPACT_SHARE = 0.1
 
 
 class RunCost(NamedTuple):
@@ -60,10 +69,12 @@ def friction_slope(params: CompressorParameters) -> float:
     return params.friction_coefficient / (params.friction_velocity_full - params.friction_velocity)
 
 
-def step_rates(params: CompressorParameters) -> dict[str, float]:
-    """Expected accepted steps per simulated second from each bound of the module docstring, by the parameters that
-    set it."""
+def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
+    """Expected accepted steps per simulated second at `rpm` from each bound of the module docstring, by the
+    parameters that set it."""
     machine = machine_from_parameters(params)
+    throw = vane_throw(params, rpm)
+    impacts_per_second = params.lobes * rpm / 60.0 if throw.lift_ratio > 1.0 else 0.0
     contact_step = machine.contact_period / CONTACT_STEPS_PER_PERIOD \
         * (params.relative_tolerance / DEFAULT_RTOL) ** 0.2
     load_per_mass = params.discharge_pressure * params.vane_thickness * params.axial_length / machine.vane_mass
@@ -71,12 +82,14 @@ def step_rates(params: CompressorParameters) -> dict[str, float]:
             "relative_tolerance and the contact stiffness": 1.0 / contact_step,
             "onset_velocity_floor and restitution": DAMPING_SHARE * 0.75 * (1.0 - params.restitution ** 2)
             * load_per_mass / params.onset_velocity_floor,
-            "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass}
+            "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass,
+            "the vane thrown off its profile (stroke, lobes, speed) and friction_velocity": impacts_per_second
+            * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass}
 
 
-def run_cost(params: CompressorParameters, duration: float) -> RunCost:
-    """The expected cost of simulating `duration` seconds (module docstring)."""
-    rates = step_rates(params)
+def run_cost(params: CompressorParameters, duration: float, rpm: float) -> RunCost:
+    """The expected cost of simulating `duration` seconds at `rpm` (module docstring)."""
+    rates = step_rates(params, rpm)
     steps = duration * float(sum(rates.values()))
     per_step = STEP_SECONDS[(params.pressure_model == "real_gas", params.integrator)]
     return RunCost(float(steps), duration / params.max_step, float(steps * per_step), max(rates, key=rates.get))
@@ -84,7 +97,7 @@ def run_cost(params: CompressorParameters, duration: float) -> RunCost:
 
 def revolution_cost(params: CompressorParameters, rpm: float) -> RunCost:
     """run_cost of one revolution at `rpm` (> 0)."""
-    return run_cost(params, 60.0 / rpm)
+    return run_cost(params, 60.0 / rpm, rpm)
 
 
 def describe_cost(cost: RunCost, what: str) -> str:
