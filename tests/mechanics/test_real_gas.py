@@ -93,6 +93,27 @@ def test_a_refused_chamber_state_stops_the_run_with_its_exact_vapour_quality():
     assert f"vapour quality {quality:.4g} from HEOS" in str(stopped.value)
 
 
+def test_the_failed_evaluation_keeps_its_refused_chamber_states_for_the_stop_message():
+    """mechanics.gas.refused_state: an evaluation the tables refuse keeps its node states (the failed attempt's,
+    which the message reports); an accepted evaluation leaves them, and a stage that is not a number (computed from
+    a refused stage's NaN rates) does not overwrite them."""
+    sim = run(revs=0.025, discharge_pressure=2.5e6)
+    work = sim.gas.flow_work
+    assert math.isnan(work["refused_time"][0])
+    refused = sim.state.copy()
+    refused[GAS_BLOCK + LEADING_TEMPERATURE] = 260.0              # wet R134a: refused by the per-point table
+    assert sim.evaluate(sim.time, refused)[0] != 0
+    density = refused[GAS_BLOCK + LEADING_MASS] / sim.last_output[OUTPUT_INDEX["leading_volume"]]
+    kept = (work["refused_temperature"][0, 1], work["refused_density"][0, 1])
+    assert work["refused_time"][0] == sim.time and kept == pytest.approx((260.0, density), rel=1e-12)
+    assert sim.evaluate(sim.time + 1e-6, sim.state)[0] == 0
+    not_a_number = refused.copy()
+    not_a_number[GAS_BLOCK + TRAILING_TEMPERATURE] = math.nan
+    assert sim.evaluate(sim.time + 2e-6, not_a_number)[0] != 0
+    assert work["refused_time"][0] == sim.time
+    assert (work["refused_temperature"][0, 1], work["refused_density"][0, 1]) == kept
+
+
 def test_on_the_fluid_wide_tables_a_chamber_in_the_dome_is_a_mixture_with_its_quality():
     """docs/model.md §7.3.1: on the fluid-wide tables (the default R134a point) the same push into the dome runs on
     as an equilibrium mixture, and the output row gives the chamber's vapour quality (CoolProp's, to 1e-4)."""
