@@ -23,7 +23,7 @@ Declared input range of a condensable working fluid (T_crit above 20 °C), from 
               compressed to the discharge pressure; at 20 °C for a transcritical p_d,max)
 
 R134a: p_s 51-572 kPa, p_d up to 2.12 MPa; envelope 210-455 K, 0.345-660 kg/m^3 (the default operating point's:
-240-455 K, 1.98-582 kg/m^3); 183 x 238 property nodes (5.7 MB), 74 x 96 nozzle nodes (2.4 MB). The dense end is
+240-455 K, 1.98-314 kg/m^3); 183 x 238 property nodes (5.7 MB), 74 x 96 nozzle nodes (2.4 MB). The dense end is
 the supercritical gas at p_max = 6.35 MPa > p_crit; there the cell check refuses the near-critical cells as it does
 for CO2 per operating point. Build times, accuracy and the sweep over operating points:
 benchmarks/bench_fluid_tables.py.

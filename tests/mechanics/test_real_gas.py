@@ -134,8 +134,8 @@ PORT_BOUND_AIR = dict(
 
 def test_a_chamber_over_compressed_above_three_discharge_pressures_stays_in_its_per_point_table():
     """docs/model.md §7.3 (density bound): the over-compressed leading chamber is hot and leaves a (T, rho) table
-    through its density bound; with the bound at 3 p_d this machine stopped at 3.1 p_d, with it at 10 p_d it
-    completes a revolution, its pressures finite over a peak above 3 p_d."""
+    through its density bound; with the bound at 3 p_d this machine stopped at 3.1 p_d, with it on the suction
+    isentrope at 4 p_d it completes a revolution, its pressures finite over a peak above 3 p_d."""
     rpm = 490.1
     sim = Simulation(CompressorParameters(**PORT_BOUND_AIR), constant_speed(rpm), initial_angle=0.0,
                      keep_history=True)
