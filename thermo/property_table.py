@@ -534,11 +534,13 @@ def envelope_for(fluid: Fluid, suction_pressure, suction_temperature, discharge_
     temperature_max = min(fluid.maximum_temperature, compressed + ENVELOPE_HOT_MARGIN)
     coldest_at_high_pressure = max(temperature_min, compressed - ENVELOPE_COLD_MARGIN,
                                    fluid.dome_temperature(high_pressure) + superheat_margin)
-    dense_pressure = min(ENVELOPE_DENSE_PRESSURE_FACTOR * discharge_pressure, fluid.maximum_pressure,
-                         fluid.pressure_at_temperature_entropy(fluid.maximum_temperature, suction_entropy))
+    dense = fluid.state_at_pressure_entropy(min(ENVELOPE_DENSE_PRESSURE_FACTOR * discharge_pressure,
+                                                fluid.maximum_pressure), suction_entropy)
+    if dense.temperature > fluid.maximum_temperature:      # the isentrope leaves the EOS first: stop it at T_max
+        dense = fluid.state_at_pressure_entropy(
+            fluid.pressure_at_temperature_entropy(fluid.maximum_temperature, suction_entropy), suction_entropy)
     return Envelope(temperature_min, temperature_max, fluid.density(temperature_max, low_pressure),
-                    max(fluid.density(coldest_at_high_pressure, high_pressure),
-                        fluid.state_at_pressure_entropy(dense_pressure, suction_entropy).density),
+                    max(fluid.density(coldest_at_high_pressure, high_pressure), dense.density),
                     float(superheat_margin))
 
 
