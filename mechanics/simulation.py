@@ -19,8 +19,8 @@ from ..thermo.chamber_model import (LEADING_MASS, LEADING_TEMPERATURE, TRAILING_
                                    boundary_nodes)
 from ..thermo.flow_paths import FlowNode
 from ..thermo.fluid import Fluid
-from ..thermo.property_table import describe_status, table_from_arrays, table_status
-from ..thermo.real_gas_nozzle import describe_nozzle_status, nozzle_table_from_arrays, table_viscosity
+from ..thermo.property_table import table_from_arrays
+from ..thermo.real_gas_nozzle import nozzle_table_from_arrays
 
 from .geometry.chamber_geometry import sector_table
 from .geometry.displacement import displacement
@@ -29,6 +29,7 @@ from .gas.boundary import (Boundary, boundary_of, hold_boundary, moved_reference
 from .contact.self_locking import check_vane_not_self_locking
 from .errors import ContactLawWarning, IntegrationError
 from .gas.gas_coupling import gas_coupling
+from .gas.refused_state import refused_state_text
 from .geometry.stator import law_arguments
 from .loop.integrators import (ABM_HISTORY, ACCEPTED, CONTROL_HISTORY, CONTROL_SIZE, CONTROL_STEP, COUNTER_SIZE,
                                EVENT_RETRIES, GRID_COLUMNS, GRID_COUNTS_SIZE, GRID_FELL_BACK, GRID_FOLLOW, GRID_RECORDED, REJECTED, WORKSPACE_ROWS, evaluate_state, initial_chamber_inputs, run)
@@ -350,6 +351,8 @@ class Simulation:
         start, budget = self.time, work_bound(end_time - self.time, self.work_per_ms)
         attempts = self._attempts()
         while True:
+            if self.gas_reference is not None:
+                self.gas.flow_work["refused_time"] = math.nan      # no refused evaluation in this call yet
             status, t, rows, records = run(
                 self.time, float(end_time), self.state, self.memory, self.control, self.abm_history, self.window,
                 self.run_dwell, self._work, self._outs, self._rows, self.keep_history, self._record_buffer,
@@ -450,27 +453,18 @@ class Simulation:
                 f"§5.2). Contact forces beyond the limit are an extrapolation")
 
     def _failure_text(self, status: int) -> str:
-        """Why the loop stopped; for a chamber state the table refused, which chamber, its state and why."""
+        """Why the loop stopped; for a chamber state the tables refused, which chamber, its state and why: the
+        failed step attempt's (mechanics.gas.refused_state), else (a stop at the valley switch) the last accepted."""
         text = STATUS_TEXT[status]
         if status == GAS_STATE_INVALID and self.gas_reference is not None:
-            table = table_from_arrays(*self.gas.properties)
-            nozzles = nozzle_table_from_arrays(*self.gas.nozzles)
-            fluid = Fluid(self.gas_reference.point.coolprop_name)         # for the exact state near the dome
-            volumes = (self.last_output[OUTPUT_INDEX["leading_volume"]],
-                       self.last_output[OUTPUT_INDEX["trailing_volume"]])
-            for k, (name, temperature, mass) in enumerate((("leading", LEADING_TEMPERATURE, LEADING_MASS),
-                                                           ("trailing", TRAILING_TEMPERATURE, TRAILING_MASS))):
-                temperature_value = self.state[GAS_BLOCK + temperature]
-                density = self.state[GAS_BLOCK + mass] / volumes[k]
-                where = f"{name} chamber (lobe {int(self.memory[MEM_LOBE_COUNT])})"
-                code = table_status(temperature_value, density, table)
-                nozzle_code = table_viscosity(temperature_value, density, nozzles)[1]   # the nozzle inlet's status
-                if code != 0:
-                    text += "; " + describe_status(code, temperature_value, density, table,
-                                                   fluid=fluid, state=where)
-                elif nozzle_code != 0:
-                    text += "; " + describe_nozzle_status(nozzle_code, temperature_value, density, nozzles,
-                                                          fluid=fluid, state=where)
+            chambers = (("leading", LEADING_TEMPERATURE, LEADING_MASS), ("trailing", TRAILING_TEMPERATURE, TRAILING_MASS))
+            accepted = [(name, self.state[GAS_BLOCK + temperature],
+                         self.state[GAS_BLOCK + mass] / self.last_output[OUTPUT_INDEX[f"{name}_volume"]])
+                        for name, temperature, mass in chambers]
+            text += refused_state_text(self.gas.flow_work[0], accepted, table_from_arrays(*self.gas.properties),
+                                       nozzle_table_from_arrays(*self.gas.nozzles),
+                                       Fluid(self.gas_reference.point.coolprop_name), int(self.memory[MEM_LOBE_COUNT]),
+                                       self.boundary.suction.pressure, self.boundary.back.pressure)
             text += self._port_hint()
         return text
 

@@ -33,6 +33,7 @@ extra row) needs no other code.
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -182,13 +183,19 @@ def flow_work(paths: tuple[FlowPath, ...], input_fields: tuple[str, ...]) -> np.
     tuple read by a run-time index costs a branch per read), per node its state (`temperature` [K], `density`
     [kg/m^3], `pressure` [Pa], `enthalpy` [J/kg]), per path the size and flow length of its section (`section`,
     `section_length`) and its mass flow [kg/s] in its direction (`mass_flow[PATH.<name>]`), per node pair the nozzle
-    flux and its signed factor (`flux`, `flux_factor`)."""
+    flux and its signed factor (`flux`, `flux_factor`); and the node states of the last evaluation a table refused
+    (`refused_temperature`, `refused_density`, at time `refused_time`, NaN until then: `note_refused`), so that a
+    run stopped by a refused state can say which state of the failed attempt left the tables."""
     pairs = len(node_pairs(paths))
     dtype = np.dtype([("inputs", np.float64, (len(input_fields),))]
                      + [(name, np.float64, (len(NODES),)) for name in FlowNode._fields]
+                     + [(name, np.float64, (len(NODES),)) for name in ("refused_temperature", "refused_density")]
+                     + [("refused_time", np.float64)]
                      + [(name, np.float64, (len(paths),)) for name in ("section", "section_length", "mass_flow")]
                      + [(name, np.float64, (pairs,)) for name in ("flux", "flux_factor")])
-    return kernel_record(np.zeros(1, dtype=dtype))
+    work = np.zeros(1, dtype=dtype)
+    work["refused_time"] = np.nan
+    return kernel_record(work)
 
 
 def path_index(paths: tuple[FlowPath, ...] = FLOW_PATHS):
@@ -214,6 +221,19 @@ def set_node(work, node, state):
     work.density[node] = state.density
     work.pressure[node] = state.pressure
     work.enthalpy[node] = state.enthalpy
+
+
+@kernel
+def note_refused(t, work):
+    """Keep the node states of an evaluation at time t that a table refused (`flow_work`'s `refused_*`), unless a
+    state is not a number: a stage computed from a refused stage's NaN rates says nothing of how the state left."""
+    for node in range(len(NODES)):
+        if not (math.isfinite(work.temperature[node]) and math.isfinite(work.density[node])):
+            return
+    for node in range(len(NODES)):
+        work.refused_temperature[node] = work.temperature[node]
+        work.refused_density[node] = work.density[node]
+    work.refused_time = t
 
 
 @kernel

@@ -226,6 +226,14 @@ class Fluid:
         self._update(self._state, CP.PSmass_INPUTS, pressure, entropy, f"p={pressure!r} Pa, s={entropy!r} J/(kg K)")
         return PressureEntropyState(self._state.T(), self._state.rhomass(), self._state.hmass())
 
+    def pressure_at_temperature_entropy(self, temperature, entropy):
+        """p [Pa] at (T, s), e.g. where an isentrope reaches a temperature."""
+        CP = coolprop()
+        temperature = self._check_temperature(temperature)
+        self._update(self._state, CP.SmassT_INPUTS, float(entropy), temperature,
+                     f"T={temperature!r} K, s={entropy!r} J/(kg K)")
+        return self._state.p()
+
     def isentropic_enthalpy(self, pressure, entropy):
         """h(p_2, s_1) [J/kg]: the enthalpy after an isentropic change of state to p_2."""
         return self.state_at_pressure_entropy(pressure, entropy).enthalpy

@@ -46,8 +46,8 @@ import numpy as np
 from .disk_cache import cache_path, load_or_build
 from .fluid import (SUPERHEAT_MARGIN, UNIVERSAL_GAS_CONSTANT, Fluid, check_operating_numbers, check_operating_point,
                     coolprop, coolprop_version)
-from .property_table import (ENVELOPE_COLD_MARGIN, ENVELOPE_HIGH_PRESSURE_FACTOR, ENVELOPE_HOT_MARGIN,
-                             ENVELOPE_LOW_PRESSURE_FACTOR, Envelope, envelope_for)
+from .property_table import (ENVELOPE_COLD_MARGIN, ENVELOPE_DENSE_PRESSURE_FACTOR, ENVELOPE_HIGH_PRESSURE_FACTOR,
+                             ENVELOPE_HOT_MARGIN, ENVELOPE_LOW_PRESSURE_FACTOR, Envelope, envelope_for)
 
 FORMAT_VERSION = 2                           # 2: points below the triple-point pressure are refused
 DISCHARGE_INITIAL_NODES = 17                 # uniform in T before refinement
@@ -164,7 +164,8 @@ def _cache_key(fluid_name, suction_pressure, suction_temperature, discharge_pres
                                                           superheat_margin)),
         f"coolprop {coolprop_version()}", f"gas constant {UNIVERSAL_GAS_CONSTANT!r}",
         "envelope rule " + " ".join(repr(v) for v in (ENVELOPE_LOW_PRESSURE_FACTOR, ENVELOPE_HIGH_PRESSURE_FACTOR,
-                                                        ENVELOPE_COLD_MARGIN, ENVELOPE_HOT_MARGIN)),
+                                                        ENVELOPE_DENSE_PRESSURE_FACTOR, ENVELOPE_COLD_MARGIN,
+                                                        ENVELOPE_HOT_MARGIN)),
         f"discharge table {DISCHARGE_INITIAL_NODES} {DISCHARGE_TEMPERATURE_TOLERANCE!r}"])
 
 

@@ -87,6 +87,7 @@ CELL_TOLERANCE = (2e-6, 2e-6, 1e-5, 1e-5)   # relative, p, h, c_v, (dp/dT)_rho a
 # operating envelope around a compressor between p_s and p_d (see `envelope_for`)
 ENVELOPE_LOW_PRESSURE_FACTOR = 0.25      # p_min = 0.25 p_s   (suction throttling, re-expansion)
 ENVELOPE_HIGH_PRESSURE_FACTOR = 3.0      # p_max = 3 p_d      (over-compression behind the discharge port)
+ENVELOPE_DENSE_PRESSURE_FACTOR = 4.0     # per point: rho_max >= rho(4 p_d, s_s), an over-compressed chamber
 ENVELOPE_COLD_MARGIN = 20.0              # K below the isentropic expansion of the suction gas to p_min
 ENVELOPE_HOT_MARGIN = 150.0              # K above the isentropic compression of the suction gas to p_max
 
@@ -511,7 +512,12 @@ def envelope_for(fluid: Fluid, suction_pressure, suction_temperature, discharge_
     isentropic discharge temperature), both clipped to the equation of state's range. Densities from
     rho(T_max, p_min) to rho(T_cold, p_max) with T_cold = max(T_min, T(p_max, s_s) - 20 K, T_dew(p_max) + margin),
     T_crit + margin in place of the dew term for p_max >= p_crit: the densest gas an adiabatic machine makes, with
-    the same 20 K allowance as at p_min (at p_d, below p_max, the rectangle admits much colder gas). Keeping the
+    the same 20 K allowance as at p_min (at p_d, below p_max, the rectangle admits much colder gas); or, if
+    larger, rho(P, s_s) on the suction isentrope at P = 4 p_d (ENVELOPE_DENSE_PRESSURE_FACTOR; at most the EOS
+    p_max and the pressure where the isentrope reaches the EOS T_max): no chamber state at p <= P is denser, its
+    entropy being at least s_s, and a chamber behind a port that cannot pass its gas is over-compressed and hot and
+    leaves the rectangle through its density bound (docs/model.md §7.3). T_max stays on the isentrope to 3 p_d: the
+    isentrope to 4 p_d would leave the EOS's temperature range for more points. Keeping the
     compressed-liquid-like states near the critical point out (CO2 at 20 MPa and 305 K) keeps the table accurate
     there. s_s is the suction entropy; the operating point is checked first (`check_operating_point`).
     """
@@ -528,8 +534,14 @@ def envelope_for(fluid: Fluid, suction_pressure, suction_temperature, discharge_
     temperature_max = min(fluid.maximum_temperature, compressed + ENVELOPE_HOT_MARGIN)
     coldest_at_high_pressure = max(temperature_min, compressed - ENVELOPE_COLD_MARGIN,
                                    fluid.dome_temperature(high_pressure) + superheat_margin)
+    dense = fluid.state_at_pressure_entropy(min(ENVELOPE_DENSE_PRESSURE_FACTOR * discharge_pressure,
+                                                fluid.maximum_pressure), suction_entropy)
+    if dense.temperature > fluid.maximum_temperature:      # the isentrope leaves the EOS first: stop it at T_max
+        dense = fluid.state_at_pressure_entropy(
+            fluid.pressure_at_temperature_entropy(fluid.maximum_temperature, suction_entropy), suction_entropy)
     return Envelope(temperature_min, temperature_max, fluid.density(temperature_max, low_pressure),
-                    fluid.density(coldest_at_high_pressure, high_pressure), float(superheat_margin))
+                    max(fluid.density(coldest_at_high_pressure, high_pressure), dense.density),
+                    float(superheat_margin))
 
 
 # ----------------------------------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ from ...kernels.kernel import kernel
 from ...thermo.chamber_model import (GAS_STATE_SIZE, LEADING_MASS, LEADING_TEMPERATURE, MASS_SUCTION,
                                      TRAILING_MASS, TRAILING_TEMPERATURE, ChamberInputs, chamber_energy,
                                      chamber_rates, volumes_with_dead_volume)
-from ...thermo.flow_paths import BACK, PATH, SUCTION
+from ...thermo.flow_paths import BACK, PATH, SUCTION, note_refused
 from ...thermo.leakage import parabolic_flank_length, tapered_gap_length
 from ...thermo.property_table import PropertyTable, table_quality
 from ...thermo.real_gas_nozzle import NozzleTable
@@ -285,6 +285,8 @@ def chamber_rates_at(t, y, inputs, ctx, dydt):
     flows, leading, trailing = chamber_rates(t, y, GAS_BLOCK, inputs, ctx.chambers[0], ctx.properties, ctx.nozzles,
                                              dydt, ctx.flow_work[0])
     status = GAS_STATE_INVALID if leading.status != 0 or trailing.status != 0 or flows.refused != 0 else 0
+    if status != 0:
+        note_refused(t, ctx.flow_work[0])        # the failed attempt's states, for the stop message
     return status, flows, leading, trailing
 
 

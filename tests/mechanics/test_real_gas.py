@@ -93,6 +93,59 @@ def test_a_refused_chamber_state_stops_the_run_with_its_exact_vapour_quality():
     assert f"vapour quality {quality:.4g} from HEOS" in str(stopped.value)
 
 
+def test_the_failed_evaluation_keeps_its_refused_chamber_states_for_the_stop_message():
+    """mechanics.gas.refused_state: an evaluation the tables refuse keeps its node states (the failed attempt's,
+    which the message reports); an accepted evaluation leaves them, and a stage that is not a number (computed from
+    a refused stage's NaN rates) does not overwrite them."""
+    sim = run(revs=0.025, discharge_pressure=2.5e6)
+    work = sim.gas.flow_work
+    assert math.isnan(work["refused_time"][0])
+    refused = sim.state.copy()
+    refused[GAS_BLOCK + LEADING_TEMPERATURE] = 260.0              # wet R134a: refused by the per-point table
+    assert sim.evaluate(sim.time, refused)[0] != 0
+    density = refused[GAS_BLOCK + LEADING_MASS] / sim.last_output[OUTPUT_INDEX["leading_volume"]]
+    kept = (work["refused_temperature"][0, 1], work["refused_density"][0, 1])
+    assert work["refused_time"][0] == sim.time and kept == pytest.approx((260.0, density), rel=1e-12)
+    assert sim.evaluate(sim.time + 1e-6, sim.state)[0] == 0
+    not_a_number = refused.copy()
+    not_a_number[GAS_BLOCK + TRAILING_TEMPERATURE] = math.nan
+    assert sim.evaluate(sim.time + 2e-6, not_a_number)[0] != 0
+    assert work["refused_time"][0] == sim.time
+    assert (work["refused_temperature"][0, 1], work["refused_density"][0, 1]) == kept
+
+
+# point 163 of the random sweep (docs/model.md §7.3, density bound), to 4 digits: an Air machine whose 2.8 mm2
+# discharge port cannot pass its gas at 490 rpm, so that its leading chamber is over-compressed above 3 p_d
+PORT_BOUND_AIR = dict(
+    lobes=2, displacement_law="harmonic", stroke=0.009238, bottom_dwell=0.8691, top_dwell=0.7752, rotor_radius=0.1297,
+    vane_thickness=0.007969, vane_length=0.09504, axial_length=0.2443, slot_bottom_radius=0.03109,
+    edge_radius=0.003065, slot_clearance=0.0003117, stator_clearance=2.985e-05, vane_density=13770.0,
+    rotor_inertia=8.671, youngs_modulus=8.585e11, poisson_ratio=0.08382, restitution=0.5629,
+    onset_velocity_floor=0.01845, stiffness_model="johnson_line", friction_model="threlfall",
+    friction_coefficient=0.07622, friction_velocity=0.007535, friction_velocity_full=0.0002789,
+    pressure_model="real_gas", fluid="Air", suction_pressure=565400.0, suction_temperature=591.9,
+    discharge_pressure=696900.0, suction_close_angle=0.1275, dead_volume=2.123e-09, suction_port_area=0.001634,
+    suction_port_coefficient=0.1602, discharge_port_area=2.828e-06, discharge_port_coefficient=0.6594,
+    end_valley_leak_law="nozzle", end_valley_leak_coefficient=0.1973, start_valley_leak_law="friction_corrected",
+    start_valley_leak_coefficient=0.1907, tip_leak_law="friction_corrected", tip_leak_coefficient=0.2761,
+    slot_leak_law="sealed", integrator="dopri5", relative_tolerance=8.421e-06, tolerance_scale=2.627,
+    initial_step=5.136e-09, max_step=1.227e-06, mode_dwell_time=0.003071)
+
+
+def test_a_chamber_over_compressed_above_three_discharge_pressures_stays_in_its_per_point_table():
+    """docs/model.md §7.3 (density bound): the over-compressed leading chamber is hot and leaves a (T, rho) table
+    through its density bound; with the bound at 3 p_d this machine stopped at 3.1 p_d, with it on the suction
+    isentrope at 4 p_d it completes a revolution, its pressures finite over a peak above 3 p_d."""
+    rpm = 490.1
+    sim = Simulation(CompressorParameters(**PORT_BOUND_AIR), constant_speed(rpm), initial_angle=0.0,
+                     keep_history=True)
+    assert sim.gas.input_range is None                          # Air: per-point tables
+    sim.advance(60.0 / rpm * 1.0001)
+    leading = sim.history["leading_pressure"]
+    assert np.all(np.isfinite(leading))
+    assert leading.max() > 3.0 * PORT_BOUND_AIR["discharge_pressure"]
+
+
 def test_on_the_fluid_wide_tables_a_chamber_in_the_dome_is_a_mixture_with_its_quality():
     """docs/model.md §7.3.1: on the fluid-wide tables (the default R134a point) the same push into the dome runs on
     as an equilibrium mixture, and the output row gives the chamber's vapour quality (CoolProp's, to 1e-4)."""

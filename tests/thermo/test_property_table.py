@@ -200,6 +200,28 @@ def test_status_messages_say_which_state_and_why(tables):
     assert "critical point" in describe_status(STATUS_INACCURATE_CELL, 310.0, 400.0, table)
 
 
+@pytest.mark.parametrize("name, suction_pressure, suction_temperature, discharge_pressure",
+                         [("R134a", 0.2928e6, 283.15, 1.3179e6), ("Air", 565400.0, 591.9, 696900.0)])
+def test_the_envelope_holds_every_chamber_state_up_to_four_discharge_pressures(name, suction_pressure,
+                                                                              suction_temperature, discharge_pressure):
+    """docs/model.md §7.3 (density bound): a chamber state has at least the suction entropy, so at pressure p it is
+    no denser than the suction isentrope; every such state from p_d to 4 p_d (within the equation of state's
+    range) lies within the per-point envelope's density and temperature bounds. The Air point is the machine of
+    the sweep whose leading chamber was stopped by the former bound at 3.1 p_d."""
+    fluid = Fluid(name)
+    envelope = envelope_for(fluid, suction_pressure, suction_temperature, discharge_pressure)
+    entropy = fluid.properties(suction_temperature, fluid.density(suction_temperature, suction_pressure)).entropy
+    checked = 0
+    for pressure in np.geomspace(discharge_pressure, 4.0 * discharge_pressure, 12):
+        isentrope = fluid.state_at_pressure_entropy(pressure, entropy)
+        if isentrope.temperature > fluid.maximum_temperature:
+            continue                                         # beyond the equation of state: no table holds it
+        assert isentrope.density <= envelope.density_max * (1.0 + 1e-12), (pressure, isentrope)
+        assert envelope.temperature_min <= isentrope.temperature, (pressure, isentrope)
+        checked += 1
+    assert checked >= 6
+
+
 def test_bad_inputs_name_the_variable(tables):
     fluid, envelope, _ = tables("R134a")
     with pytest.raises(ValueError, match=r"discharge_pressure=.*allowed: > suction_pressure"):
