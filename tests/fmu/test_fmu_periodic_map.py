@@ -44,7 +44,7 @@ def compare(built_fmus, env, cases):
     script = Template(COMPARE).substitute(cases=repr(json.dumps(cases)), fmu=repr(str(built_fmus /
                                           "RotaryVaneCompressor.fmu")), settle=SETTLE, step=STEP)
     run = H.run_host(script, env=env, timeout=900).check()
-    return run.result, [line for line in run.stderr.splitlines() if line.startswith("[periodic map]")]
+    return run.result, H.periodic_map_messages(run.stderr)
 
 
 @pytest.fixture(scope="module")
@@ -143,8 +143,9 @@ for clearance in (2e-5, 3e-5):
     host.close()
 """).substitute(fmu=repr(str(fmu)))
     run = H.run_host(script, env=env, timeout=600).check()
-    loaded = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] loaded")]
-    built = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] building")]
+    tables = H.periodic_map_messages(run.stderr)
+    loaded = [line for line in tables if line.startswith("[periodic map] loaded")]
+    built = [line for line in tables if line.startswith("[periodic map] building")]
     assert len(loaded) == 1 and "resources" in loaded[0], run.stderr[-2000:]
     assert len(built) == 1, run.stderr[-2000:]
 
@@ -183,7 +184,7 @@ def test_start_up_coupled_to_the_motor_matches_detailed(map_fmus, tmp_path):
     result, process = H.run_json_script(STARTUP, dict(motor=str(map_fmus / "DriveMotor.fmu"), step=1e-3, stop=1.2,
                                                       compressor=str(map_fmus / "RotaryVaneCompressor.fmu")),
                                         tmp_path, timeout=900)
-    tables = [line for line in process.stderr.splitlines() if line.startswith("[periodic map]")]
+    tables = H.periodic_map_messages(process.stderr)
     assert len(tables) == 1 and tables[0].startswith("[periodic map] loaded") and "/resources/" in tables[0], \
         process.stderr[-2000:]
     detailed, mapped = result["detailed"], result["periodic_map"]
@@ -218,7 +219,7 @@ def test_thesis_start_up_ramp_shaft_work_matches_detailed(built_fmus, env, defau
     inertia (its kinetic energy is 7 % of the work at 0.4 s): the table is the cached default_real_gas_table."""
     run = H.run_host(Template(RAMP).substitute(fmu=repr(str(built_fmus / "RotaryVaneCompressor.fmu"))),
                      env=env, timeout=900).check()
-    tables = [line for line in run.stderr.splitlines() if line.startswith("[periodic map]")]
+    tables = H.periodic_map_messages(run.stderr)
     assert len(tables) == 1 and tables[0].startswith("[periodic map] loaded"), run.stderr[-2000:]
     result = run.result
     detailed, mapped = result["detailed"], result["periodic_map"]

@@ -214,7 +214,7 @@ def test_start_up_in_map_mode_reaches_the_detailed_steady_state(map_fmus, tmp_pa
     # the same FMU alone (README contract row C27): the table is the one it ships, and a discharge pressure outside
     # its box is refused with fmi2Discard naming the input, the state untouched; back inside, the step runs
     run = H.run_host(BOX_CHECK.format(fmu=str(map_fmus / "RotaryVaneCompressor.fmu"))).check()
-    loaded = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] loaded")]
+    loaded = [line for line in H.periodic_map_messages(run.stderr) if line.startswith("[periodic map] loaded")]
     assert len(loaded) == 1 and "/resources/" in loaded[0] and "/periodic_maps/" in loaded[0], run.stderr[-2000:]
     result = run.result
     assert result["statuses"] == [H.DISCARD, H.OK], result
