@@ -118,8 +118,8 @@ host.close()
 def test_build_ships_the_table_and_the_fmu_loads_it_instead_of_building(tmp_path, env):
     """`build --map params.json` puts the table inside the FMU; a host with an empty cache then loads it from
     the FMU's resources (no build message), and other parameters still build their own table. (Polytropic: the
-    speed-only table, seconds to build; the real-gas table over the pressures is shipped in
-    test_fmu_refrigeration_system.py's map-mode start-up.)"""
+    speed-only table, seconds to build; the real-gas table over the pressures is shipped by the `map_fmus`
+    fixture, tests/fmu/conftest.py.)"""
     import subprocess
     import sys
     import zipfile
