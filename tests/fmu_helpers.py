@@ -129,6 +129,11 @@ def cache_listing(folder: Path) -> dict[str, tuple[int, int]]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+def periodic_map_messages(stderr: str) -> list[str]:
+    """The lines a host wrote about its periodic-map tables ('[periodic map] loaded ...', '... building ...')."""
+    return [line for line in stderr.splitlines() if line.startswith("[periodic map]")]
+
+
 def relative_difference(value: float, reference: float) -> float:
     return abs(value - reference) / abs(reference)
 

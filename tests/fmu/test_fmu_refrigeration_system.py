@@ -199,17 +199,13 @@ DETAILED_STEADY = {"suction pressure [Pa]": 271.7e3, "discharge pressure [Pa]": 
 
 
 @pytest.mark.slow
-def test_start_up_in_map_mode_reaches_the_detailed_steady_state(tmp_path):
-    """The compressor FMU built with its fluid periodic map shipped (`build --map`, the system's parameters), the
-    system from standstill in fmpy with --fidelity periodic_map: steady, with the charge kept, and its steady p_s,
-    p_d, mass flow, capacity and COP within 1 % of the detailed model's. Then that FMU alone loads the table it
-    ships, and refuses a discharge pressure outside the table's box (fmi2Discard, the state untouched)."""
-    (tmp_path / "params.json").write_text(json.dumps({"rotor_inertia": 0.0, "pressure_table_speed": 1500.0}))
-    done = subprocess.run([sys.executable, "-m", "rotary_vane.fmu_src.build", "--out", str(tmp_path / "fmu"),
-                           "--map", str(tmp_path / "params.json")], capture_output=True, text=True, timeout=7200,
-                          env=H.host_environment())
-    assert done.returncode == 0, done.stderr[-3000:]
-    summary = run_example(tmp_path / "fmu", tmp_path / "map", "--duration", str(STEADY_DURATION), "--fidelity",
+def test_start_up_in_map_mode_reaches_the_detailed_steady_state(map_fmus, tmp_path):
+    """The compressor FMU built with its fluid periodic map shipped (`build --map`, the system's parameters: the
+    session's `map_fmus`), the system from standstill in fmpy with --fidelity periodic_map: steady, with the charge
+    kept, and its steady p_s, p_d, mass flow, capacity and COP within 1 % of the detailed model's. Then that FMU
+    alone loads the table it ships, and refuses a discharge pressure outside the table's box (fmi2Discard, the state
+    untouched)."""
+    summary = run_example(map_fmus, tmp_path / "map", "--duration", str(STEADY_DURATION), "--fidelity",
                           "periodic_map", "--window-revolutions", "25", "--csv-stride", "1000")
     assert summary["steady state reached"], summary["last-10 % drift of p_s, p_d, mass flow, capacity (relative)"]
     assert summary["charge balance: max |loop + chambers - start| / start"] < 1e-9
@@ -217,8 +213,8 @@ def test_start_up_in_map_mode_reaches_the_detailed_steady_state(tmp_path):
         assert summary["last window"][name] == pytest.approx(value, rel=1e-2), name
     # the same FMU alone (README contract row C27): the table is the one it ships, and a discharge pressure outside
     # its box is refused with fmi2Discard naming the input, the state untouched; back inside, the step runs
-    run = H.run_host(BOX_CHECK.format(fmu=str(tmp_path / "fmu" / "RotaryVaneCompressor.fmu"))).check()
-    loaded = [line for line in run.stderr.splitlines() if line.startswith("[periodic map] loaded")]
+    run = H.run_host(BOX_CHECK.format(fmu=str(map_fmus / "RotaryVaneCompressor.fmu"))).check()
+    loaded = [line for line in H.periodic_map_messages(run.stderr) if line.startswith("[periodic map] loaded")]
     assert len(loaded) == 1 and "/resources/" in loaded[0] and "/periodic_maps/" in loaded[0], run.stderr[-2000:]
     result = run.result
     assert result["statuses"] == [H.DISCARD, H.OK], result
