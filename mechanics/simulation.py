@@ -453,10 +453,13 @@ class Simulation:
                 f"§5.2). Contact forces beyond the limit are an extrapolation")
 
     def _failure_text(self, status: int) -> str:
-        """Why the loop stopped; for a chamber state the tables refused, which chamber, its state and why: the
-        failed step attempt's (mechanics.gas.refused_state), else (a stop at the valley switch) the last accepted."""
+        """Why the loop stopped; for a chamber state the tables refused, first what the chamber pressures say of the
+        ports (the remedy, which a host that shortens long messages keeps), then which chamber, its state and why:
+        the failed step attempt's (mechanics.gas.refused_state), else (a stop at the valley switch) the last
+        accepted."""
         text = STATUS_TEXT[status]
         if status == GAS_STATE_INVALID and self.gas_reference is not None:
+            text += self._port_hint()
             chambers = (("leading", LEADING_TEMPERATURE, LEADING_MASS), ("trailing", TRAILING_TEMPERATURE, TRAILING_MASS))
             accepted = [(name, self.state[GAS_BLOCK + temperature],
                          self.state[GAS_BLOCK + mass] / self.last_output[OUTPUT_INDEX[f"{name}_volume"]])
@@ -465,7 +468,6 @@ class Simulation:
                                        nozzle_table_from_arrays(*self.gas.nozzles),
                                        Fluid(self.gas_reference.point.coolprop_name), int(self.memory[MEM_LOBE_COUNT]),
                                        self.boundary.suction.pressure, self.boundary.back.pressure)
-            text += self._port_hint()
         return text
 
     def _port_hint(self) -> str:
