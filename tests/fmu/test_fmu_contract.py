@@ -238,7 +238,7 @@ from fmpy import simulate_fmu
 out = {"statuses": [], "messages": []}
 host = H.Host($fmu)
 for values in [{"restitution": 5.0}, {"vane_length": 0.03}, {"displacement_law": "x" * 100000},
-               {"shaft_speed": -5.0}]:
+               {"shaft_speed": -5.0}, {"lobes": 6, "stroke": 0.01, "friction_coefficient": 0.4}]:
     host.fmu.reset()
     out["statuses"].append(host.initialize(**{**H.OPERATING_POINT, **values}))
     out["statuses"].append(host.step(0.0, 1e-3))
@@ -524,15 +524,18 @@ def test_messages_name_the_state_and_the_cause(misuse):
 
 def test_bad_parameters_name_what_the_user_set(bad_parameters):
     """C2's messages: the parameter, its value and the range; a long vane_length is blamed on vane_length, not on
-    slot_bottom_radius; a 100 kB string is echoed cut to a readable length; simulate_fmu raises and prints it."""
+    slot_bottom_radius; a 100 kB string is echoed cut to a readable length; a vane that would self-lock in its slot
+    (docs/model.md §5.5) is refused naming friction_coefficient; simulate_fmu raises and prints it."""
     out = bad_parameters.result
-    restitution, vane, string, speed = ("\n".join(m) for m in out["messages"])
+    restitution, vane, string, speed, locking = ("\n".join(m) for m in out["messages"])
     assert "parameter 'restitution' = 5.0 is out of range: allowed [0.1, 1]" in restitution
     assert "parameter 'vane_length' = 0.03 is out of range: allowed < 0.0205 m" in vane and "slot_bottom_radius'" \
         not in vane
     assert "parameter 'displacement_law' = 'xxxx" in string and "(100002 characters)" in string
     assert max(len(m) for m in out["messages"][2]) < 600, [len(m) for m in out["messages"][2]]
     assert "input 'shaft_speed' = -5.0 rpm at initialization is invalid" in speed
+    assert "parameter 'friction_coefficient' = 0.4 is out of range for this vane and profile: allowed < 0.3" in locking \
+        and "self-locks in its slot" in locking, locking
     assert out["simulate_fmu"].startswith("FMICallException") and "ExitInitializationMode" in out["simulate_fmu"]
     # fmpy's default logger prints the reason: the shim passes errors on even with debug logging off
     assert "parameter 'restitution' = 5.0 is out of range" in bad_parameters.stdout, bad_parameters.stdout[-2000:]
