@@ -51,11 +51,16 @@ def locking_margin(params) -> LockingMargin:
     lever = 1.0 + 2.0 * np.maximum(tip_beyond, 0.0) / engaged
     index = _locking_index(params.friction_coefficient, tan_beta, lever)
     k = int(np.argmax(index))
-    low, high = 0.0, 1.0 / float(tan_beta.max())     # beyond 1/tan beta the push cannot slide the vane
-    for _ in range(60):                              # J grows with mu: bisect for max J = 1
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if _locking_index(middle, tan_beta, lever).max() < 1.0 else (low, middle)
-    return LockingMargin(float(index[k]), math.atan(tan_beta[k]), float(tip_beyond[k]), float(engaged[k]), low)
+    return LockingMargin(float(index[k]), math.atan(tan_beta[k]), float(tip_beyond[k]), float(engaged[k]),
+                         float(np.min(_locking_friction(tan_beta, lever))))
+
+
+def _locking_friction(tan_beta: np.ndarray, lever: np.ndarray) -> np.ndarray:
+    """The mu at which J = 1 at each sample: the positive root of lever mu^2 + (lever + 1) tan beta mu - 1 = 0
+    (J = 1 with the denominator multiplied out; there 1 - mu tan beta = lever mu (tan beta + mu) > 0). J grows
+    with mu, so the vane locks nowhere on the stroke for mu below the smallest root."""
+    b = (lever + 1.0) * tan_beta
+    return 2.0 / (b + np.sqrt(b * b + 4.0 * lever))
 
 
 def check_vane_not_self_locking(params) -> None:
