@@ -140,9 +140,9 @@ def main(argv=None) -> int:
     log = harness.FmuLog(args.verbose)
     results = []
     for model in args.models:
-        system = CoupledSystem(fmu_dir, log, 0.0, model)
-        system.warm_up()                      # the first steps load or compile the kernels: not timed
-        results.append(convergence_run(system, args))
+        with CoupledSystem(fmu_dir, log, 0.0, model) as system:
+            system.warm_up()                  # the first steps load or compile the kernels: not timed
+            results.append(convergence_run(system, args))
         print(results[-1]["pressure_model"], {k: v for k, v in results[-1].items() if k != "unconverged"},
               flush=True)
     text = table(results, args)

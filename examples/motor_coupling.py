@@ -49,6 +49,7 @@ import gc
 import importlib.util
 import json
 import math
+import shutil
 import sys
 import time
 import xml.etree.ElementTree as ElementTree
@@ -159,9 +160,22 @@ class Slave:
         self.name, self.log = name, log
         self.model_description = read_model_description(str(fmu))
         self.variables = harness.model_variables(self.model_description)
-        self.fmu = instantiate_fmu(extract(str(fmu)), self.model_description, "CoSimulation", debug_logging=True,
+        self.folder = extract(str(fmu))          # a new temporary folder (about 40 MB): close() removes it
+        self.fmu = instantiate_fmu(self.folder, self.model_description, "CoSimulation", debug_logging=True,
                                    logger=log)
         self.used = False
+
+    def close(self) -> None:
+        """fmi2Terminate (if the instance was used), fmi2FreeInstance, and remove the unpacked FMU."""
+        from fmpy.fmi1 import FMICallException
+        try:
+            if self.used:
+                self.fmu.terminate()
+        except FMICallException:
+            pass                                 # an instance in the error state takes only fmi2FreeInstance
+        finally:
+            self.fmu.freeInstance()
+            shutil.rmtree(self.folder, ignore_errors=True)
 
     def start_value(self, name: str) -> float:
         return float(self.variables[name].start)
@@ -222,16 +236,28 @@ class Run:
 
 
 class CoupledSystem:
-    """The motor and compressor FMUs (one instance each) and the three masters."""
+    """The motor and compressor FMUs (one instance each) and the three masters; a context manager that frees both
+    instances and their unpacked folders."""
 
     def __init__(self, fmu_dir: Path, log: harness.FmuLog, tolerance: float,
                  pressure_model: str = "ideal_gas_table"):
         self.motor = Slave(fmu_dir / f"{harness.MOTOR}.fmu", "motor", log)
-        self.compressor = Slave(fmu_dir / f"{harness.COMPRESSOR}.fmu", "compressor", log)
+        try:
+            self.compressor = Slave(fmu_dir / f"{harness.COMPRESSOR}.fmu", "compressor", log)
+        except BaseException:
+            self.motor.close()
+            raise
         self.tolerance = tolerance
         self.pressure_model = pressure_model
         self.rotor_inertia = self.compressor.start_value("rotor_inertia")       # J2 of the compressor FMU
         self.inertia = self.motor.start_value("motor_inertia") + self.rotor_inertia   # the shaft's [kg.m2]
+
+    def __enter__(self) -> CoupledSystem:
+        return self
+
+    def __exit__(self, *exception) -> None:
+        self.motor.close()
+        self.compressor.close()
 
     def warm_up(self) -> float:
         """A few coupled steps before any timed run (the first step of a process loads or compiles the compressor's
@@ -668,7 +694,13 @@ def main(argv=None) -> int:
     args = parse_arguments(argv)
     fmu_dir = harness.ensure_fmus(args.fmu_dir)
     out = harness.output_folder(args.out)
-    system = CoupledSystem(fmu_dir, harness.FmuLog(args.verbose), args.iteration_tolerance, args.pressure_model)
+    with CoupledSystem(fmu_dir, harness.FmuLog(args.verbose), args.iteration_tolerance,
+                       args.pressure_model) as system:
+        return studies(system, args, fmu_dir, out)
+
+
+def studies(system: CoupledSystem, args, fmu_dir: Path, out: Path) -> int:
+    """The convergence, sizing and libcosim studies, their figures and summary.json."""
     synchronous = system.synchronous_speed()
     steps, stop = args.steps, args.stop_time
     for power in (args.motor_power, args.undersized_power):

@@ -23,6 +23,7 @@ import json
 import math
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from string import Template
 
@@ -45,9 +46,17 @@ def env(tmp_path_factory) -> dict:
 
 
 def run_example(script: str, out: Path, fmus: Path, env: dict, *options: str) -> subprocess.CompletedProcess:
-    """python examples/<script> --fmu-dir FMUS --out OUT OPTIONS..., from a temporary folder."""
-    return subprocess.run([sys.executable, str(EXAMPLES / script), "--fmu-dir", str(fmus), "--out", str(out),
-                           *options], cwd=out.parent, env=env, capture_output=True, text=True, timeout=TIMEOUT)
+    """python examples/<script> --fmu-dir FMUS --out OUT OPTIONS..., from a temporary folder, with a temporary folder
+    (TMPDIR) of its own that it must leave empty: an unpacked FMU is about 40 MB, and a harness a user runs in a loop
+    must not fill the disk with them."""
+    scratch = Path(tempfile.mkdtemp(prefix="tmpdir_", dir=out.parent))
+    done = subprocess.run([sys.executable, str(EXAMPLES / script), "--fmu-dir", str(fmus), "--out", str(out),
+                           *options], cwd=out.parent, env=dict(env, TMPDIR=str(scratch)), capture_output=True,
+                          text=True, timeout=TIMEOUT)
+    left = sorted(path.name for path in scratch.iterdir())
+    assert not left, f"examples/{script} {' '.join(options)} left {left} in its temporary folder\n{done.stderr[-2000:]}"
+    scratch.rmdir()
+    return done
 
 
 def succeeded(done: subprocess.CompletedProcess) -> subprocess.CompletedProcess:
