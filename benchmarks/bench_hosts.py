@@ -80,7 +80,9 @@ def clean_environment() -> dict[str, str]:
 def python_host(body: str) -> float:
     """Seconds the host script reports (from its `start`, before instantiation, to the end of the first step)."""
     source = "import time\n" + textwrap.dedent(body) + REPORT
-    done = subprocess.run([sys.executable, "-c", source], capture_output=True, text=True, timeout=600)
+    with tempfile.TemporaryDirectory(prefix="rvc_python_host_") as scratch:   # where fmpy unpacks (40 MB a run)
+        done = subprocess.run([sys.executable, "-c", source], capture_output=True, text=True, timeout=600,
+                              env=dict(os.environ, TMPDIR=scratch))
     match = re.search(r"LATENCY (\S+)", done.stdout)
     if done.returncode != 0 or not match:
         raise RuntimeError(f"host failed ({done.returncode}):\n{done.stderr[-2000:]}")

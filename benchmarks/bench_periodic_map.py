@@ -6,6 +6,7 @@ revolution-to-revolution scatter of the detailed model itself).
 Usage:  python benchmarks/bench_periodic_map.py [--repeats 3] [--pressure-model polytropic]
 """
 import argparse
+import shutil
 import statistics
 import sys
 import tempfile
@@ -103,6 +104,7 @@ def fmu_step_costs(fmu: Path, steps: int, repeats: int, clearance: float, pressu
             slave.terminate()
             slave.freeInstance()
         costs[fidelity] = statistics.median(walls)
+    shutil.rmtree(folder, ignore_errors=True)           # fmpy's extract made it (40 MB); nothing else removes it
     return costs
 
 

@@ -27,6 +27,7 @@ refuse any other boundary than their parameters').
 from __future__ import annotations
 
 import argparse
+import shutil
 import time
 
 import numpy as np
@@ -86,7 +87,8 @@ def fmu_step_map(fmu: str, model: str, rtol: float, states: int, speeds: int, in
     from fmpy.fmi2 import FMU2Slave
     description = read_model_description(fmu)
     refs = {v.name: v.valueReference for v in description.modelVariables}
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(fmu),
+    folder = extract(fmu)
+    slave = FMU2Slave(guid=description.guid, unzipDirectory=folder,
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName="step_map")
     slave.instantiate()
     slave.setupExperiment(startTime=0.0)
@@ -119,6 +121,7 @@ def fmu_step_map(fmu: str, model: str, rtol: float, states: int, speeds: int, in
         t += STEP
     slave.terminate()
     slave.freeInstance()
+    shutil.rmtree(folder, ignore_errors=True)           # fmpy's extract made it (40 MB); nothing else removes it
     return torques
 
 

@@ -5,8 +5,10 @@ that every subprocess runs `sys.executable`.
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 from types import SimpleNamespace
 
 import numpy as np
@@ -91,6 +93,24 @@ def built_fmus(tmp_path_factory):
     """All FMUs and system files of this checkout, built once per test session into a temporary folder."""
     import fmu_helpers
     return fmu_helpers.build_fmu(tmp_path_factory.mktemp("built_fmus")).parent
+
+
+@pytest.fixture(scope="session", autouse=True)
+def temporary_folder_of_the_session(tmp_path_factory):
+    """Every temporary file this session makes, in this process (tempfile) and in the processes it starts (TMPDIR),
+    goes into one folder under pytest's own, removed when the session ends. fmpy's `extract` unpacks each FMU into a
+    new 40 MB folder that nothing removes; before this, a default run and its slow run left thousands of them and
+    filled the disk of the machine CI runs on."""
+    folder = tmp_path_factory.mktemp("tmpdir")
+    saved = os.environ.get("TMPDIR"), tempfile.tempdir
+    os.environ["TMPDIR"] = tempfile.tempdir = str(folder)
+    yield folder
+    if saved[0] is None:
+        os.environ.pop("TMPDIR")
+    else:
+        os.environ["TMPDIR"] = saved[0]
+    tempfile.tempdir = saved[1]
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 PYTHON_NAME = re.compile(r"python[0-9.]*$")

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -95,7 +96,9 @@ def run_host(script: str, *, env: dict[str, str] | None = None, timeout: float =
     """Run `script` (Python source; dedented) in a fresh interpreter with a timeout.
 
     The script runs from a temporary folder (nothing of the project on sys.path except through the installed
-    package); `import fmu_helpers as H` works in it (the tests folder is appended to sys.path).
+    package); `import fmu_helpers as H` works in it (the tests folder is appended to sys.path). Unless `env` names
+    one, its TMPDIR is a folder inside that one, removed with it: fmpy unpacks every FMU a host loads into a new
+    40 MB temporary folder, and hundreds of host processes must not fill the disk.
     """
     source = (f"import sys\nsys.path.append({str(TESTS_DIR)!r})\n" + textwrap.dedent(script))
     with tempfile.TemporaryDirectory(prefix="rvc_host_") as folder:
@@ -104,7 +107,8 @@ def run_host(script: str, *, env: dict[str, str] | None = None, timeout: float =
         start = time.perf_counter()
         try:
             done = subprocess.run([sys.executable, str(path)], cwd=cwd or folder,
-                                  env=env if env is not None else host_environment(),
+                                  env=private_temporary_folder(env if env is not None else host_environment(),
+                                                               Path(folder)),
                                   capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired as expired:
             raise AssertionError(f"host process did not finish within {timeout} s\nstdout:\n"
@@ -113,6 +117,14 @@ def run_host(script: str, *, env: dict[str, str] | None = None, timeout: float =
     results = [json.loads(line[len(RESULT_PREFIX):]) for line in done.stdout.splitlines()
                if line.startswith(RESULT_PREFIX)]
     return HostRun(done.returncode, done.stdout, done.stderr, wall, results)
+
+
+def private_temporary_folder(env: dict[str, str], folder: Path) -> dict[str, str]:
+    """`env` with TMPDIR set to a new folder `folder`/tmp, unless `env` already sets TMPDIR."""
+    if "TMPDIR" in env:
+        return env
+    (folder / "tmp").mkdir()
+    return dict(env, TMPDIR=str(folder / "tmp"))
 
 
 def run_hosts(scripts: list[str], *, env: dict[str, str] | None = None, timeout: float = DEFAULT_TIMEOUT,
@@ -169,6 +181,7 @@ class Host:
         from fmpy import extract, read_model_description
         from fmpy.simulation import instantiate_fmu
         self.unzipdir = str(unzipdir if unzipdir is not None else extract(str(fmu)))
+        self.unpacked_here = unzipdir is None            # close() removes a folder this host unpacked
         self.model_description = read_model_description(self.unzipdir)
         self.variables = {v.name: v for v in self.model_description.modelVariables}
         self.real_outputs = [v.name for v in self.model_description.modelVariables
@@ -240,14 +253,16 @@ class Host:
         return rows
 
     def close(self) -> None:
-        """fmi2Terminate (refused with fmi2Error in the error state, where only fmi2FreeInstance is left) and
-        fmi2FreeInstance."""
+        """fmi2Terminate (refused with fmi2Error in the error state, where only fmi2FreeInstance is left),
+        fmi2FreeInstance, and the removal of the folder this host unpacked the FMU into."""
         from fmpy.fmi1 import FMICallException
         try:
             self.fmu.terminate()
         except FMICallException:
             pass
         self.fmu.freeInstance()
+        if self.unpacked_here:
+            shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     # trace -----------------------------------------------------------------------------------------------
     def calls(self) -> list[str]:
@@ -311,8 +326,10 @@ def load(path, name):
 def run_json_script(script: str, spec: dict, cwd, timeout: float = 300.0):
     """Run `script` in a fresh interpreter in `cwd` with the JSON `spec` as argv[1]; it prints one line
     'RESULT <json>'. Return (that result, the completed process); fail if the script did not finish."""
-    process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
-                             text=True, timeout=timeout)
+    with tempfile.TemporaryDirectory(prefix="rvc_script_") as folder:
+        process = subprocess.run([sys.executable, "-c", script, json.dumps(spec)], cwd=cwd, capture_output=True,
+                                 text=True, timeout=timeout,
+                                 env=private_temporary_folder(dict(os.environ), Path(folder)))
     assert process.returncode == 0, \
         f"subprocess failed:\n{process.stdout[-3000:]}\n{process.stderr[-3000:]}"
     lines = [line for line in process.stdout.splitlines() if line.startswith("RESULT ")]
