@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from .chamber_relaxation import chamber_relaxation_rate
 from .machine import machine_from_parameters
 from .vane_throw import vane_throw
 from ..parameters import CompressorParameters
@@ -84,7 +85,9 @@ def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
             * load_per_mass / params.onset_velocity_floor,
             "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass,
             "the vane thrown off its profile (stroke, lobes, speed) and friction_velocity": impacts_per_second
-            * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass}
+            * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass,
+            "the chambers' relaxation through the suction port (suction_port_area, suction_port_coefficient, "
+            "dead_volume and the chamber volume near the valley)": chamber_relaxation_rate(params, rpm)}
 
 
 def run_cost(params: CompressorParameters, duration: float, rpm: float) -> RunCost:
