@@ -42,6 +42,7 @@ from .machine import machine_from_parameters
 # ABM4 PECE its real-axis boundary (docs/model.md §8.3); ark548 treats the chambers implicitly (no bound)
 STABILITY_REACH = {"dopri5": STABILITY_LIMIT, "abm4": 1.28}
 LOBE_SAMPLES = 2001           # phases over a lobe: the port share and the dwell's volume are resolved to 1/2000 lobe
+GROWTH_STEP = 1e-4            # the central difference of dV/dphi, in lobes
 # the least volume the real-gas model lets a chamber have at the valley (mechanics.simulation's valley check)
 VALLEY_VOLUME_SHARE = 0.25
 
@@ -80,10 +81,16 @@ def relaxation_step_rates(params: CompressorParameters, rpm: float, phase: np.nd
     sound, kappa = suction_sound(params)
     trailing_share = np.clip(phase / params.suction_close_angle, 0.0, 1.0) if params.suction_close_angle > 0.0 \
         else np.ones_like(phase)
+    lobe = 2.0 * math.pi / params.lobes
+    before = np.clip(phase - GROWTH_STEP * lobe, 0.0, lobe)
+    after = np.clip(phase + GROWTH_STEP * lobe, 0.0, lobe)
     rates = np.zeros_like(phase)
-    for share, geometric in zip((1.0 - trailing_share, trailing_share), nominal_chamber_volumes(params, phase)):
+    for share, geometric, first, last in zip((1.0 - trailing_share, trailing_share),
+                                             nominal_chamber_volumes(params, phase),
+                                             nominal_chamber_volumes(params, before),
+                                             nominal_chamber_volumes(params, after)):
         volume = np.maximum(geometric + params.dead_volume, VALLEY_VOLUME_SHARE * params.dead_volume)
-        growth = np.abs(np.gradient(volume, phase)) * omega                       # |dV/dt| [m^3/s]
+        growth = np.abs(last - first) / (after - before) * omega                  # |dV/dt| [m^3/s]
         conductance = params.suction_port_coefficient * params.suction_port_area * share
         in_band = conductance * sound * math.sqrt(2.0 * kappa / LINEAR_FLOW_BAND) / volume
         filling = np.divide(conductance ** 2 * sound ** 2 / volume, growth, out=np.full_like(volume, np.inf),

@@ -86,8 +86,8 @@ def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
             "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass,
             "the vane thrown off its profile (stroke, lobes, speed) and friction_velocity": impacts_per_second
             * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass,
-            "the chambers' relaxation through the suction port (suction_port_area, suction_port_coefficient, "
-            "dead_volume and the chamber volume near the valley)": chamber_relaxation_rate(params, rpm)}
+            "suction_port_area against the small chamber volumes (dead_volume, stroke, bottom_dwell): the chambers' "
+            "relaxation through the suction port": chamber_relaxation_rate(params, rpm)}
 
 
 def run_cost(params: CompressorParameters, duration: float, rpm: float) -> RunCost:
