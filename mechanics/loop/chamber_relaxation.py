@@ -7,11 +7,11 @@ pressure difference eps = thermo.control_volume.LINEAR_FLOW_BAND). Its largest s
 
     d(m_dot)/dp = C_d A G_eps/(eps p) = C_d A sqrt(2 rho/(eps p))     (G_eps^2 = 2 rho eps p, Bernoulli),
 
-so lambda_max = C_d A c sqrt(2 kappa/eps)/V with kappa = rho c^2/p (the ideal-gas k). Outside the band the slope
-of G ~ sqrt(2 rho dp) is (C_d A)^2 rho/m_dot; a chamber that grows at dV/dt draws m_dot = rho dV/dt through the
-port, so its slope is (C_d A)^2/(dV/dt): a chamber that hardly grows (the new trailing chamber in a bottom dwell,
-docs/model.md §2.3) settles inside the band, where the slope is largest, a growing one does not. The slope used is
-the smaller of the two.
+so lambda_max = C_d A c sqrt(2 kappa/eps)/V with kappa = rho c^2/p (`suction_sound`). Outside the
+band the slope of G ~ sqrt(2 rho dp) is (C_d A)^2 rho/m_dot; a chamber that grows at dV/dt draws m_dot = rho dV/dt
+through the port, so its slope is (C_d A)^2/(dV/dt): a chamber that hardly grows (the new trailing chamber in a
+bottom dwell, docs/model.md §2.3) settles inside the band, where the slope is largest, a growing one does not. The
+slope used is the smaller of the two.
 
 The trailing chamber holds the share phi/phi_sc of the port (thermo.control_volume.port_coverage: the port spans
 the lobe phases [0, phi_sc]) and the leading chamber the rest; V is the chamber's geometric volume
@@ -33,7 +33,7 @@ from ..geometry.displacement import displacement_on_grid
 from ..geometry.stator import law_arguments
 from ..parameters import CompressorParameters
 from ...thermo.control_volume import LINEAR_FLOW_BAND
-from ...thermo.fluid import Fluid, coolprop
+from ...thermo.operating_point import operating_point_for
 from .dynamics import chamber_geometry_of
 from .integrators import STABILITY_LIMIT
 from .machine import machine_from_parameters
@@ -48,23 +48,21 @@ VALLEY_VOLUME_SHARE = 0.25
 
 
 def suction_sound(params: CompressorParameters) -> tuple[float, float]:
-    """(c [m/s], kappa = rho c^2/p) of the suction gas (CoolProp HEOS, gas branch)."""
-    fluid = Fluid(params.fluid)
-    density = fluid.gas_density(params.suction_temperature, params.suction_pressure)
-    state = fluid.gas_branch_state(params.suction_temperature, density)
-    CP = coolprop()
-    sound_squared = state.first_partial_deriv(CP.iP, CP.iDmass, CP.iSmass)
-    return math.sqrt(sound_squared), density * sound_squared / params.suction_pressure
+    """(c [m/s], kappa = rho c^2/p) of the suction gas from its operating point (thermo.operating_point, cached on
+    disk: no CoolProp import)."""
+    point = operating_point_for(params.fluid, params.suction_pressure, params.suction_temperature,
+                                params.discharge_pressure)
+    sound = point.suction_sound_speed
+    return sound, point.suction_density * sound ** 2 / params.suction_pressure
 
 
 def nominal_chamber_volumes(params: CompressorParameters, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(V_L, V_T) geometric volumes [m^3] (no dead volume) of the lobe starting at angle 0 with the untilted vane at
     rotor angle `phase`, its tip centre on the nominal path R0 + s + c_S, centred in its slot."""
     machine = machine_from_parameters(params)
-    record = machine[0] if machine.shape else machine
-    table = sector_table(record)
+    table = sector_table(machine)
     stroke = displacement_on_grid(phase, *law_arguments(params)[:5])
-    radius = params.base_radius + stroke + params.stator_clearance - record.tip_centre
+    radius = params.base_radius + stroke + params.stator_clearance - machine.tip_centre
     volumes = np.array([chamber_geometry_of(r * math.cos(a), r * math.sin(a), a, 0.0, 0.0, 0.0, a, 1.0, 0.0,
                                             machine, table)[:2] for r, a in zip(radius, phase)])
     return volumes[:, 0], volumes[:, 1]

@@ -16,9 +16,11 @@ revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE).
 A vane thrown off its profile (mechanics.loop.vane_throw: lift ratio > 1) lands once a lobe with the Hertz impact
 force F_i for a time t_i; under F_i the friction law's slope is lambda_i = mu_eff'(0) F_i / m3, and a share c of
 the impact (IMPACT_SHARE) is spent at it: c t_i lambda_i steps per impact, z n of them per second (n revolutions per
-second). A simulated duration D takes about
+second). A chamber of the real-gas model open to the suction port relaxes on p_s at a rate lambda_r(phi) that an
+explicit method keeps within its stability reach r (mechanics.loop.chamber_relaxation): (z/2 pi) int lambda_r/r dphi
+steps per second, nothing fitted. A simulated duration D takes about
 
-    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f + z n c t_i lambda_i)
+    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f + z n c t_i lambda_i + (z/2 pi) int lambda_r/r dphi)
 
 accepted steps, at least D/max_step (the bound no run can beat: h <= max_step for every method). At 10 rpm a
 revolution is 6 s of simulated time: 300 000 steps at the default max_step of 20 us, and 6e8 at max_step = 1e-8 s.
