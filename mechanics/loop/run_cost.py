@@ -72,6 +72,14 @@ def friction_slope(params: CompressorParameters) -> float:
     return params.friction_coefficient / (params.friction_velocity_full - params.friction_velocity)
 
 
+def relaxation_limit(params: CompressorParameters) -> str:
+    """The parameters behind the chambers' relaxation through the suction port, with their values."""
+    dwell = f", bottom_dwell = {params.bottom_dwell:.3g} rad" if params.displacement_law == "harmonic_dwell" else ""
+    return (f"suction_port_area = {params.suction_port_area:.3g} m2 against the small chamber volumes (dead_volume = "
+            f"{params.dead_volume:.3g} m3, stroke = {params.stroke:.3g} m{dwell}): the chambers' relaxation through "
+            "the suction port")
+
+
 def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
     """Expected accepted steps per simulated second at `rpm` from each bound of the module docstring, by the
     parameters that set it."""
@@ -88,8 +96,7 @@ def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
             "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass,
             "the vane thrown off its profile (stroke, lobes, speed) and friction_velocity": impacts_per_second
             * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass,
-            "suction_port_area against the small chamber volumes (dead_volume, stroke, bottom_dwell): the chambers' "
-            "relaxation through the suction port": chamber_relaxation_rate(params, rpm)}
+            relaxation_limit(params): chamber_relaxation_rate(params, rpm)}
 
 
 def run_cost(params: CompressorParameters, duration: float, rpm: float) -> RunCost:

@@ -39,7 +39,7 @@ POINT_115 = dict(
     gas_constant=2994.230653936072, integrator="dopri5", relative_tolerance=7.397686535150135e-08,
     tolerance_scale=0.31524449548643346, initial_step=1.5872856022139566e-06, max_step=6.258434616352422e-05,
     mode_dwell_time=0.0062311434010888945)
-RELAXATION = "suction_port_area against the small chamber volumes"
+RELAXATION = "suction_port_area = "
 
 
 def test_in_the_dwell_the_rate_is_the_port_laws_steepest_slope_over_the_chamber():
@@ -87,7 +87,8 @@ def test_a_small_chamber_behind_a_wide_port_is_refused_before_any_work():
     that estimate before any work; with ark548, which integrates the chambers implicitly, the term is gone."""
     result = run_point(POINT_115, budget=20.0)
     assert result["outcome"] == "refused" and result["steps"] == 0, result
-    assert RELAXATION in result["detail"] and "over the budget of 20 s" in result["detail"], result["detail"]
+    assert ("suction_port_area = 0.00273 m2 against the small chamber volumes (dead_volume = 1.67e-08 m3"
+            in result["detail"] and "over the budget of 20 s" in result["detail"]), result["detail"]
     params = CompressorParameters(**{k: v for k, v in POINT_115.items() if k != "rpm"})
     cost = revolution_cost(params, POINT_115["rpm"])
     assert cost.seconds > 500.0 and cost.limit.startswith(RELAXATION), cost
