@@ -3,7 +3,8 @@ once and cached on disk, so that a run whose point and property table are cached
 CPU; docs/model.md §7.1).
 
 `OperatingPoint` (SI) holds the canonical CoolProp name; the suction density rho_1 = rho(T_s, p_s), enthalpy h_1 and
-entropy s_1; the isentropic discharge enthalpy h_2s = h(p_d, s_1) (docs/model.md §6.4); the nozzle law's ideal-gas
+entropy s_1; the isentropic discharge enthalpy h_2s = h(p_d, s_1) (docs/model.md §6.4); the suction gas's speed of
+sound c_1 (the run-cost estimate's chamber relaxation, docs/model.md §8.3); the nozzle law's ideal-gas
 R = 8314.462/M and k = c_p0/(c_p0 - R) at T_s (docs/model.md §7.4); the property table's Envelope
 (thermo.property_table.envelope_for); T_crit; the suction superheat (thermo.fluid.check_operating_point); and a table
 of the discharge temperature T(p_d, h).
@@ -49,7 +50,7 @@ from .fluid import (SUPERHEAT_MARGIN, UNIVERSAL_GAS_CONSTANT, Fluid, check_opera
 from .property_table import (ENVELOPE_COLD_MARGIN, ENVELOPE_DENSE_PRESSURE_FACTOR, ENVELOPE_HIGH_PRESSURE_FACTOR,
                              ENVELOPE_HOT_MARGIN, ENVELOPE_LOW_PRESSURE_FACTOR, Envelope, envelope_for)
 
-FORMAT_VERSION = 2                           # 2: points below the triple-point pressure are refused
+FORMAT_VERSION = 3                           # 2: points below the triple-point pressure are refused; 3: c_1
 DISCHARGE_INITIAL_NODES = 17                 # uniform in T before refinement
 DISCHARGE_TEMPERATURE_TOLERANCE = 1e-8       # K, interpolant against the exact T at every interval's T-midpoint
 
@@ -73,6 +74,7 @@ class OperatingPoint(NamedTuple):
     suction_enthalpy: float                  # h_1 [J/kg]
     suction_entropy: float                   # s_1 [J/(kg K)]
     isentropic_discharge_enthalpy: float     # h_2s = h(p_d, s_1) [J/kg]
+    suction_sound_speed: float               # c_1 = sqrt((dp/drho)_s) at (T_s, rho_1) [m/s]
     envelope: Envelope                       # of the property table (thermo.property_table.envelope_for)
     discharge_enthalpies: np.ndarray         # h_i on the isobar p_d, increasing [J/kg]
     discharge_temperatures: np.ndarray       # T_i [K]
@@ -135,6 +137,14 @@ def _frozen(values) -> np.ndarray:
     return array
 
 
+def _sound_speed(state, temperature, density) -> float:
+    """c = sqrt((dp/drho)_s) from HEOS's c_p, c_v and (dp/dT)_rho: (dp/drho)_T = T (dp/dT)_rho^2/(rho^2 (c_p - c_v))
+    and c^2 = (c_p/c_v) (dp/drho)_T."""
+    isothermal = (temperature * state.pressure_temperature_derivative ** 2
+                  / (density ** 2 * (state.isobaric_heat_capacity - state.isochoric_heat_capacity)))
+    return math.sqrt(state.isobaric_heat_capacity / state.isochoric_heat_capacity * isothermal)
+
+
 def _compute(fluid_name, suction_pressure, suction_temperature, discharge_pressure, superheat_margin):
     """The OperatingPoint from CoolProp HEOS, after Fluid's name check and check_operating_point."""
     fluid = Fluid(fluid_name)
@@ -150,6 +160,7 @@ def _compute(fluid_name, suction_pressure, suction_temperature, discharge_pressu
         ideal_gas_exponent=fluid.ideal_gas_exponent(suction_temperature), suction_density=density,
         suction_enthalpy=suction.enthalpy, suction_entropy=suction.entropy,
         isentropic_discharge_enthalpy=fluid.isentropic_enthalpy(discharge_pressure, suction.entropy),
+        suction_sound_speed=_sound_speed(suction, suction_temperature, density),
         envelope=envelope, **{name: _frozen(column) for name, column in zip(TABLE_FIELDS, table)})
 
 

@@ -16,9 +16,11 @@ revolutions of the 200-point sweep of §11.5 (DAMPING_SHARE, FRICTION_SHARE).
 A vane thrown off its profile (mechanics.loop.vane_throw: lift ratio > 1) lands once a lobe with the Hertz impact
 force F_i for a time t_i; under F_i the friction law's slope is lambda_i = mu_eff'(0) F_i / m3, and a share c of
 the impact (IMPACT_SHARE) is spent at it: c t_i lambda_i steps per impact, z n of them per second (n revolutions per
-second). A simulated duration D takes about
+second). A chamber of the real-gas model open to the suction port relaxes on p_s at a rate lambda_r(phi) that an
+explicit method keeps within its stability reach r (mechanics.loop.chamber_relaxation): (z/2 pi) int lambda_r/r dphi
+steps per second, nothing fitted. A simulated duration D takes about
 
-    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f + z n c t_i lambda_i)
+    N = D (1/max_step + 1/h_c + a lambda_d + b lambda_f + z n c t_i lambda_i + (z/2 pi) int lambda_r/r dphi)
 
 accepted steps, at least D/max_step (the bound no run can beat: h <= max_step for every method). At 10 rpm a
 revolution is 6 s of simulated time: 300 000 steps at the default max_step of 20 us, and 6e8 at max_step = 1e-8 s.
@@ -32,6 +34,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from .chamber_relaxation import chamber_relaxation_rate
 from .machine import machine_from_parameters
 from .vane_throw import vane_throw
 from ..parameters import CompressorParameters
@@ -69,6 +72,14 @@ def friction_slope(params: CompressorParameters) -> float:
     return params.friction_coefficient / (params.friction_velocity_full - params.friction_velocity)
 
 
+def relaxation_limit(params: CompressorParameters) -> str:
+    """The parameters behind the chambers' relaxation through the suction port, with their values."""
+    dwell = f", bottom_dwell = {params.bottom_dwell:.3g} rad" if params.displacement_law == "harmonic_dwell" else ""
+    return (f"suction_port_area = {params.suction_port_area:.3g} m2 against the small chamber volumes (dead_volume = "
+            f"{params.dead_volume:.3g} m3, stroke = {params.stroke:.3g} m{dwell}): the chambers' relaxation through "
+            "the suction port")
+
+
 def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
     """Expected accepted steps per simulated second at `rpm` from each bound of the module docstring, by the
     parameters that set it."""
@@ -84,7 +95,8 @@ def step_rates(params: CompressorParameters, rpm: float) -> dict[str, float]:
             * load_per_mass / params.onset_velocity_floor,
             "friction_velocity": FRICTION_SHARE * friction_slope(params) * load_per_mass,
             "the vane thrown off its profile (stroke, lobes, speed) and friction_velocity": impacts_per_second
-            * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass}
+            * IMPACT_SHARE * throw.impact_time * friction_slope(params) * throw.impact_force / machine.vane_mass,
+            relaxation_limit(params): chamber_relaxation_rate(params, rpm)}
 
 
 def run_cost(params: CompressorParameters, duration: float, rpm: float) -> RunCost:
