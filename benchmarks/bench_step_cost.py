@@ -9,8 +9,8 @@ two versions. Cases: the defaults (real-gas chambers), the Level 0.5 table (pres
 defaults with the Johnson line contact (stiffness_model "johnson_line", docs/model.md §5.2), and any points of a
 parameter-sweep file (examples/parameter_sweep.py's `points` list, run at their constant speed from angle 0 as the
 sweep runs them). Every timed run is a fresh process (the kernels loaded by a short warm-up advance, then a timed
-advance over --time seconds of simulated time) and the baseline and candidate runs alternate, so a change in the
-machine's load falls on both. Reported per case: the medians of CPU time (process time) per accepted step and per
+advance over --time seconds of simulated time) and the baseline and candidate runs alternate, in turn first, so a
+change in the machine's load falls on both. Reported per case: the medians of CPU time (process time) per accepted step and per
 right-hand side, the candidate over baseline ratio, and the accepted steps and rejections of each, which agree
 exactly where the candidate is bit-identical.
 """
@@ -64,7 +64,7 @@ def main() -> None:
     parser.add_argument("--baseline-python", required=True, help="interpreter of the baseline checkout's venv")
     parser.add_argument("--candidate-python", default=sys.executable, help="interpreter of the candidate's venv")
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--time", type=float, default=0.02, help="simulated seconds per timed run")
+    parser.add_argument("--time", type=float, default=0.1, help="simulated seconds per timed run")
     parser.add_argument("--sweep-points", help="a parameter-sweep JSON file ({'points': [...]})")
     parser.add_argument("--index", type=int, nargs="*", default=[], help="indices of its points to run")
     parser.add_argument("--no-built-in", action="store_true", help="only the sweep points")
@@ -79,8 +79,9 @@ def main() -> None:
     for label, values in cases.items():
         case = dict(values=values, time=args.time)
         runs = {"baseline": [], "candidate": []}
-        for _ in range(args.repeats):
-            for side, python in (("baseline", args.baseline_python), ("candidate", args.candidate_python)):
+        sides = [("baseline", args.baseline_python), ("candidate", args.candidate_python)]
+        for repeat in range(args.repeats):
+            for side, python in (sides if repeat % 2 == 0 else sides[::-1]):      # neither side always runs first
                 runs[side].append(run_worker(python, case))
         per_step = {side: statistics.median(r["cpu"] / r["accepted"] for r in result) * 1e6
                     for side, result in runs.items()}
