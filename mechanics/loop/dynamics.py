@@ -295,6 +295,21 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     """Right-hand side dy/dt at (t, y) and, if `report`, the output row (docs/model.md §8.1b); returns 0 or the
     kernel status code of an impossible pose or chamber state. Intermediate integrator stages pass report=False and
     skip what is only reported."""
+    return evaluate_with_inputs(t, y, ctx, memory, dydt, out, report)[0]
+
+
+@kernel
+def no_chamber_inputs():
+    """The ChamberInputs of a pressure-table model, which has no chambers: all NaN."""
+    return ChamberInputs(math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan,
+                         math.nan, math.nan)
+
+
+@kernel
+def evaluate_with_inputs(t, y, ctx, memory, dydt, out, report):
+    """`evaluate`, returning (status, the ChamberInputs of the pose: no_chamber_inputs under the pressure tables),
+    so that what follows at the same state (the chamber Jacobian of mechanics.loop.integrators) need not build the
+    pose and the chamber geometry again."""
     m = ctx.machine[0]
     pose, slots, tip, sides, basis = pose_stages(t, y, ctx, memory)
     status = 0
@@ -303,6 +318,7 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
     contacts = contact_loads(pose, slots, tip, memory, m, out)
     real_gas = m.pressure_model == REAL_GAS_MODEL
     geometry = chamber_geometry(pose, tip, sides, basis, memory[MEM_LOBE_START], m, ctx.sectors)
+    inputs = no_chamber_inputs()
     if real_gas:
         inputs = chamber_inputs(pose, slots, tip, sides, geometry, memory, m)
         c = ctx.chambers[0]
@@ -325,4 +341,4 @@ def evaluate(t, y, ctx, memory, dydt, out, report):
                        geometry, powers, memory, m, out)
         if real_gas:
             report_chambers(out, y, inputs, work, flows, leading, trailing, c, ctx.properties)
-    return status
+    return status, inputs

@@ -24,7 +24,7 @@ from ...thermo.real_gas_nozzle import nozzle_table_from_arrays
 
 from ..geometry.chamber_geometry import SectorTable
 from .ark548_tableau import ARK_B, ARK_C, ARK_E, ARK_EXPLICIT, ARK_GAMMA, ARK_IMPLICIT, ARK_STAGES
-from .dynamics import KernelContext, chamber_inputs_at, chamber_rates_at, evaluate
+from .dynamics import KernelContext, chamber_inputs_at, chamber_rates_at, evaluate, evaluate_with_inputs
 from .layout import (ANGLE, ANGULAR_VELOCITY, GAS_BLOCK, GAS_STATE_INVALID, MEM_CLOSEST_OFFSET, MEM_LAW_EXCESS,
                      MEM_LOBE_COUNT, MEM_LOBE_START, MEM_MODE, MEM_ONSET_VELOCITY, NOT_FINITE, REACHED_END,
                      RECORD_FULL, STEP_TOO_SMALL, VX, VY, WORK_IN, WORK_LIMIT, X, Y)
@@ -379,10 +379,14 @@ def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
     c = ctx.chambers[0]
     n = y.size
     failure = 0
-    for i in range(1, STAGES):
-        target = work_rows[W_Y_NEW] if i == STAGES - 1 else work_rows[W_STAGE]
-        _stage_point(target, y, h, DOPRI5_A, i, work, i, n)
-        failure |= evaluate(t + DOPRI5_C[i] * h, target, ctx, memory, work_rows[i], out, i == STAGES - 1)
+    for i in range(1, STAGES - 1):
+        _stage_point(work_rows[W_STAGE], y, h, DOPRI5_A, i, work, i, n)
+        failure |= evaluate(t + DOPRI5_C[i] * h, work_rows[W_STAGE], ctx, memory, work_rows[i], out, False)
+    last = STAGES - 1                       # the new state (c_7 = 1), its rates and output row
+    _stage_point(work_rows[W_Y_NEW], y, h, DOPRI5_A, last, work, last, n)
+    end_status, end_inputs = evaluate_with_inputs(t + DOPRI5_C[last] * h, work_rows[W_Y_NEW], ctx, memory,
+                                                  work_rows[last], out, True)
+    failure |= end_status
     counters[EVALUATIONS] += STAGES - 1
     squares = 0.0
     rate_squares = 0.0
@@ -402,7 +406,10 @@ def dopri5_attempt(t, h, event, y, ctx, memory, control, history, work, work_row
         # the stages' estimate is a lower bound (it measures J along y_n+1 - Y_6, where the stiff mode is damped);
         # the chamber Jacobian at the new state gives the chambers' dominant eigenvalue itself
         rho = _dopri5_stiffness(rate_squares, state_squares)
-        if _chamber_jacobian(t + h, work_rows[W_Y_NEW], ctx, memory, history, work_rows, counters) == 0:
+        # at the new state: its chamber geometry and chamber rates are those of the last stage's evaluation
+        end_gas_status = GAS_STATE_INVALID if end_status == GAS_STATE_INVALID else 0
+        if _chamber_jacobian_around(t + h, work_rows[W_Y_NEW], end_inputs, work_rows[last], end_gas_status, ctx,
+                                    history, work_rows, counters) == 0:
             rho = max(rho, _chamber_spectral_radius(history, work_rows[W_Y_NEW], m, c))
         control[CONTROL_STIFFNESS] = rho
     return failure, math.sqrt(squares / n)
@@ -558,16 +565,25 @@ def _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters):
     """J_qp = d f_q/d y_p of the chamber rates in the chamber states (T_L, m_L, T_T, m_T) at (t, y), by forward
     differences at the chamber geometry of the pose in y (history row H_JACOBIAN, row-major, the base rates after
     it); returns the failure status (docs/model.md §8.2, ark548)."""
+    inputs = chamber_inputs_at(t, y, ctx, memory)
+    rates = work_rows[W_NEWTON]
+    failure = chamber_rates_at(t, y, inputs, ctx, rates)[0]
+    return _chamber_jacobian_around(t, y, inputs, rates, failure, ctx, history, work_rows, counters)
+
+
+@kernel
+def _chamber_jacobian_around(t, y, inputs, base, base_failure, ctx, history, work_rows, counters):
+    """_chamber_jacobian from the chamber geometry `inputs` of (t, y) and the chamber rates there (`base`, from
+    GAS_BLOCK, with their failure status `base_failure`)."""
     m = ctx.machine[0]
     c = ctx.chambers[0]
-    inputs = chamber_inputs_at(t, y, ctx, memory)
     perturbed = work_rows[W_STAGE]
     rates = work_rows[W_NEWTON]
-    base = CHAMBER_STATES * CHAMBER_STATES
+    base_column = CHAMBER_STATES * CHAMBER_STATES      # the base rates, after J in the row
     copy_values(perturbed, 0, y, 0, y.size)
-    failure = chamber_rates_at(t, perturbed, inputs, ctx, rates)[0]
+    failure = base_failure
     for q in range(CHAMBER_STATES):
-        history[H_JACOBIAN, base + q] = rates[GAS_BLOCK + q]
+        history[H_JACOBIAN, base_column + q] = base[GAS_BLOCK + q]
     for p in range(CHAMBER_STATES):
         i = GAS_BLOCK + p
         delta = math.sqrt(np.finfo(np.float64).eps) * max(abs(y[i]), 1e3 * _tolerance(i, 0.0, m, c))
@@ -575,7 +591,8 @@ def _chamber_jacobian(t, y, ctx, memory, history, work_rows, counters):
         failure |= chamber_rates_at(t, perturbed, inputs, ctx, rates)[0]
         perturbed[i] = y[i]
         for q in range(CHAMBER_STATES):
-            history[H_JACOBIAN, CHAMBER_STATES * q + p] = (rates[GAS_BLOCK + q] - history[H_JACOBIAN, base + q]) / delta
+            history[H_JACOBIAN, CHAMBER_STATES * q + p] = ((rates[GAS_BLOCK + q] - history[H_JACOBIAN, base_column + q])
+                                                           / delta)
     counters[JACOBIANS] += 1
     finite = True
     for k in range(JACOBIAN_CURRENT):

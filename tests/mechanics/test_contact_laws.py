@@ -188,6 +188,20 @@ def test_line_contact_inverts_johnson_formula(check, vane, other):
 
 
 @pytest.mark.parametrize("vane,other", CURVATURE_CASES)
+def test_line_contact_force_solves_the_law_to_rounding(check, vane, other):
+    """docs/model.md §5.2 option L: the force found for delta inside the law's range satisfies F (A - B ln F) = delta
+    to rounding (a converged Newton iterate is taken as the root, not bisected towards it to only ~1e-13)."""
+    from rotary_vane.mechanics.contact.contact_laws import line_contact_constants, line_contact_limit
+    m = machine_from_parameters(CompressorParameters(stiffness_model="johnson_line"))
+    a, b = line_contact_constants(vane, other, m)
+    worst = 0.0
+    for delta in np.logspace(-11, math.log10(0.9 * line_contact_limit(a, b)[1]), 400):
+        force = elastic_force(delta, vane, other, m)[0]
+        worst = max(worst, abs(force * (a - b * math.log(force)) / delta - 1))
+    check("T5 option L residual of delta(F) at the solved F, rel.", worst, 1e-14)
+
+
+@pytest.mark.parametrize("vane,other", CURVATURE_CASES)
 def test_line_contact_energy_is_integral_of_force(check, vane, other):
     p = CompressorParameters(stiffness_model="johnson_line")
     m = machine_from_parameters(p)
