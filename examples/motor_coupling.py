@@ -45,6 +45,7 @@ Usage:  python examples/motor_coupling.py [--steps 1e-4,2e-4,...] [--stop-time 0
 from __future__ import annotations
 
 import argparse
+import atexit
 import gc
 import importlib.util
 import json
@@ -151,22 +152,36 @@ def parse_arguments(argv=None) -> argparse.Namespace:
 
 
 # one FMU through fmpy's low-level API ----------------------------------------------------------------------
+_UNPACKED: dict[str, str] = {}
+
+
+def unpacked(fmu: Path) -> str:
+    """The temporary folder `fmu` is unpacked into (fmpy's extract, about 40 MB), once per process and removed when
+    the process exits. Not sooner: a Python FMU's code is imported from the first folder one of its instances uses
+    and stays imported for the process, so every later instance reads its compiled kernels from that folder."""
+    key = str(Path(fmu).resolve())
+    if key not in _UNPACKED:
+        from fmpy import extract
+        _UNPACKED[key] = extract(key)
+        atexit.register(shutil.rmtree, _UNPACKED[key], ignore_errors=True)
+    return _UNPACKED[key]
+
+
 class Slave:
     """One FMU instance (fmpy FMU2Slave, debug logging on), instantiated once and reset between runs."""
 
     def __init__(self, fmu: Path, name: str, log: harness.FmuLog):
-        from fmpy import extract, read_model_description
+        from fmpy import read_model_description
         from fmpy.simulation import instantiate_fmu
         self.name, self.log = name, log
         self.model_description = read_model_description(str(fmu))
         self.variables = harness.model_variables(self.model_description)
-        self.folder = extract(str(fmu))          # a new temporary folder (about 40 MB): close() removes it
-        self.fmu = instantiate_fmu(self.folder, self.model_description, "CoSimulation", debug_logging=True,
+        self.fmu = instantiate_fmu(unpacked(fmu), self.model_description, "CoSimulation", debug_logging=True,
                                    logger=log)
         self.used = False
 
     def close(self) -> None:
-        """fmi2Terminate (if the instance was used), fmi2FreeInstance, and remove the unpacked FMU."""
+        """fmi2Terminate (if the instance was used) and fmi2FreeInstance."""
         from fmpy.fmi1 import FMICallException
         try:
             if self.used:
@@ -175,7 +190,6 @@ class Slave:
             pass                                 # an instance in the error state takes only fmi2FreeInstance
         finally:
             self.fmu.freeInstance()
-            shutil.rmtree(self.folder, ignore_errors=True)
 
     def start_value(self, name: str) -> float:
         return float(self.variables[name].start)
@@ -237,7 +251,7 @@ class Run:
 
 class CoupledSystem:
     """The motor and compressor FMUs (one instance each) and the three masters; a context manager that frees both
-    instances and their unpacked folders."""
+    instances."""
 
     def __init__(self, fmu_dir: Path, log: harness.FmuLog, tolerance: float,
                  pressure_model: str = "ideal_gas_table"):

@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -181,7 +180,6 @@ class Host:
         from fmpy import extract, read_model_description
         from fmpy.simulation import instantiate_fmu
         self.unzipdir = str(unzipdir if unzipdir is not None else extract(str(fmu)))
-        self.unpacked_here = unzipdir is None            # close() removes a folder this host unpacked
         self.model_description = read_model_description(self.unzipdir)
         self.variables = {v.name: v for v in self.model_description.modelVariables}
         self.real_outputs = [v.name for v in self.model_description.modelVariables
@@ -253,16 +251,16 @@ class Host:
         return rows
 
     def close(self) -> None:
-        """fmi2Terminate (refused with fmi2Error in the error state, where only fmi2FreeInstance is left),
-        fmi2FreeInstance, and the removal of the folder this host unpacked the FMU into."""
+        """fmi2Terminate (refused with fmi2Error in the error state, where only fmi2FreeInstance is left) and
+        fmi2FreeInstance. The unpacked folder stays until run_host removes the host's temporary folder: the FMU's
+        Python code, imported from the first instance's folder, stays imported for the process, and a later instance
+        reads its compiled kernels from there."""
         from fmpy.fmi1 import FMICallException
         try:
             self.fmu.terminate()
         except FMICallException:
             pass
         self.fmu.freeInstance()
-        if self.unpacked_here:
-            shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     # trace -----------------------------------------------------------------------------------------------
     def calls(self) -> list[str]:
