@@ -119,8 +119,10 @@ def run_host(script: str, *, env: dict[str, str] | None = None, timeout: float =
 
 
 def private_temporary_folder(env: dict[str, str], folder: Path) -> dict[str, str]:
-    """`env` with TMPDIR set to a new folder `folder`/tmp, unless `env` already sets TMPDIR."""
-    if "TMPDIR" in env:
+    """`env` with TMPDIR set to a new folder `folder`/tmp, unless `env` sets a TMPDIR of its own (one that is not
+    this process's: the test session sets TMPDIR for itself, tests/conftest.py, and every host environment copies
+    it)."""
+    if env.get("TMPDIR") not in (None, os.environ.get("TMPDIR")):
         return env
     (folder / "tmp").mkdir()
     return dict(env, TMPDIR=str(folder / "tmp"))
